@@ -1,0 +1,32 @@
+# The two commands of the README: `make demo` (the main job) and `make test` (every test).
+# Each one sets everything up first (scripts/setup.sh). `make lab` opens the notebooks.
+PY := .venv/bin/python
+export PYOPENGL_PLATFORM ?= egl
+
+SCENE ?= scene1
+PLANNER ?= stair
+SEED ?= 0
+OUT ?= runs/demo
+
+.PHONY: setup demo test unit notebooks lab bench
+
+setup:
+	@bash scripts/setup.sh
+
+demo: setup
+	$(PY) -m stair_lite demo --scene $(SCENE) --out $(OUT)
+
+test: setup
+	$(PY) -m pytest tests notebooks --nbval-lax --nbval-current-env --nbval-cell-timeout=600 --durations=15 -ra
+
+unit: setup
+	$(PY) -m pytest tests -ra
+
+notebooks: setup
+	$(PY) -m pytest notebooks --nbval-lax --nbval-current-env --nbval-cell-timeout=600 --durations=15 -ra
+
+lab: setup
+	MPLBACKEND=module://matplotlib_inline.backend_inline .venv/bin/jupyter lab notebooks
+
+bench: setup
+	$(PY) benchmarks/bench_world.py

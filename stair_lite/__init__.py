@@ -1,0 +1,10 @@
+"""stair_lite: a teaching implementation of STAIR, semantic-targeted active implicit reconstruction.
+
+Import this package before pyrender: offscreen rendering needs ``PYOPENGL_PLATFORM`` set before
+PyOpenGL is first imported (EGL by default; export ``PYOPENGL_PLATFORM=osmesa`` to choose OSMesa).
+"""
+import os
+
+os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+
+__version__ = "0.1.0"

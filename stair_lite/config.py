@@ -1,0 +1,106 @@
+"""Configuration: plain frozen dataclasses and the two named presets, ``paper`` and ``lite``.
+
+``paper`` carries the paper's numbers (Sec. IV-A). ``lite`` is the CPU default; its sizes were chosen
+by measurement (see ``benchmarks/`` and the README), trading grid resolution and rays per batch for speed.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+
+@dataclass(frozen=True)
+class FieldConfig:
+    """The map: three dense feature grids and small MLPs (paper Sec. III-A)."""
+
+    grid_resolution: int = 128
+    occ_channels: int = 3  # T_occ
+    rgb_channels: int = 6  # T_rgb
+    sem_channels: int = 7  # T_sem = number of classes (identity semantic head)
+    pe_frequencies: int = 3  # gamma(x) = [x, sin(2^k x), cos(2^k x)], k < 3: R^3 -> R^21
+    occ_hidden: tuple[int, ...] = (32, 32)
+    rgb_hidden: tuple[int, ...] = (128, 128)
+    occupancy_shift: float = -6.0  # o = 1 - exp(-softplus(f + shift)): the map starts almost empty
+    bound: float = 1.5  # the grids span the scene cube [-bound, bound]^3
+
+
+@dataclass(frozen=True)
+class RenderConfig:
+    """Samples along rays (paper Sec. III-B) for training, evaluation and candidate views."""
+
+    near: float = 0.2
+    n_samples: int = 200  # uniform samples inside the scene cube, per ray
+    n_surface_samples: int = 0  # extra training samples around the measured depth (lite speed-up)
+    surface_band: float = 0.08  # half-width [m] of the band those samples are drawn from
+    chunk_rays: int = 8192
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Incremental training (paper Sec. III-B): loss weights, batch split, iterations per view."""
+
+    lambda_rgb: float = 1.0
+    lambda_depth: float = 0.1
+    lambda_sem: float = 1.0
+    rays_new: int = 4000
+    rays_replay: int = 4000
+    iterations_per_view: int = 200
+    lr_grid: float = 0.05
+    lr_mlp: float = 0.02
+
+
+@dataclass(frozen=True)
+class EvalConfig:
+    """Evaluation (paper Sec. IV-A): test views, image size, mesh resolution, points per mesh, threshold."""
+
+    n_test_views: int = 100
+    image_scale: float = 1.0  # test images at this fraction of the 400x400 measurements
+    mesh_resolution: int = 256
+    mesh_points: int = 1_000_000
+    f1_threshold: float = 0.01  # 1 cm
+
+
+@dataclass(frozen=True)
+class PlanConfig:
+    """Candidate views and utility (paper Sec. III-C and IV-A)."""
+
+    n_uniform: int = 100  # N_uni
+    top_k: int = 10  # K
+    n_resample: int = 10  # N_re
+    resample_angle: tuple[float, float] = (0.1, 0.5)  # radians, as the reference code
+    candidate_scale: float = 0.2  # 400x400 -> 80x80 = N_ray
+    candidate_samples: int = 200  # N_pt
+    epsilon: float = 0.2
+
+
+@dataclass(frozen=True)
+class Preset:
+    """Everything a mission needs, under one name."""
+
+    name: str
+    field: FieldConfig = field(default_factory=FieldConfig)
+    render: RenderConfig = field(default_factory=RenderConfig)
+    train: TrainConfig = field(default_factory=TrainConfig)
+    eval: EvalConfig = field(default_factory=EvalConfig)
+    plan: PlanConfig = field(default_factory=PlanConfig)
+    budget: int = 10  # measurements per mission, the top view included
+
+
+PAPER = Preset(name="paper")
+
+LITE = Preset(
+    name="lite",
+    field=FieldConfig(grid_resolution=64, rgb_hidden=(32, 32)),
+    render=RenderConfig(n_samples=64, n_surface_samples=16, chunk_rays=4096),
+    train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=100, lambda_depth=0.1),
+    eval=EvalConfig(n_test_views=20, image_scale=0.25, mesh_resolution=128, mesh_points=100_000),
+    plan=PlanConfig(candidate_scale=0.1, candidate_samples=96),
+)
+
+PRESETS = {"paper": PAPER, "lite": LITE}
+
+
+def get_preset(name: str = "lite", **overrides) -> Preset:
+    """A preset by name, optionally with whole sub-configs replaced (``train=TrainConfig(...)``)."""
+    if name not in PRESETS:
+        raise ValueError(f"unknown preset {name!r}; choose one of {sorted(PRESETS)}")
+    return replace(PRESETS[name], **overrides)

@@ -1,0 +1,2 @@
+"""Checkers for the notebooks' exercises: each takes the learner's function and raises AssertionError
+with a hint when it is wrong (one module per notebook topic)."""

@@ -1,0 +1,114 @@
+"""The semantic implicit map (paper Sec. III-A): three dense feature grids read by trilinear
+interpolation (Eq. 1), a positional encoding gamma, and heads for occupancy, colour and semantics.
+
+Introduced in notebook 02 (occupancy and colour) and notebook 03 (semantics).
+Grid layout: ``grid[0, c, k, j, i]`` holds channel c at the vertex (x_i, y_j, z_k); vertices sit on the
+cube's corners, so vertex i is at x = -bound + i * 2 bound / (R - 1) (``align_corners=True``).
+"""
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from .config import FieldConfig
+
+
+def positional_encoding(x: torch.Tensor, n_frequencies: int) -> torch.Tensor:
+    """gamma(x) = [x, sin(2^k x), cos(2^k x)] for k < n_frequencies, on coordinates in [-1, 1].
+
+    With 3 frequencies this maps R^3 to R^21, as in the paper. (The reference code drops the raw x.)
+    """
+    scaled = x[..., None, :] * (2.0 ** torch.arange(n_frequencies, dtype=x.dtype, device=x.device))[:, None]
+    scaled = scaled.flatten(-2)
+    return torch.cat([x, torch.sin(scaled), torch.cos(scaled)], dim=-1)
+
+
+def trilinear(grid: torch.Tensor, x_normalised: torch.Tensor) -> torch.Tensor:
+    """interp(x, V) of Eq. 1: features (N, C) of a grid (1, C, D, H, W) at points (N, 3) in [-1, 1]^3."""
+    samples = F.grid_sample(grid, x_normalised.view(1, 1, 1, -1, 3), mode="bilinear", align_corners=True)
+    return samples.view(grid.shape[1], -1).t()
+
+
+def mlp(n_in: int, hidden: tuple[int, ...], n_out: int) -> nn.Sequential:
+    """A ReLU MLP with the given hidden widths."""
+    layers, width = [], n_in
+    for h in hidden:
+        layers += [nn.Linear(width, h), nn.ReLU()]
+        width = h
+    layers.append(nn.Linear(width, n_out))
+    return nn.Sequential(*layers)
+
+
+class SemanticField(nn.Module):
+    """Occupancy o(x) in [0, 1], colour c(x) in [0, 1]^3 and semantic probabilities s(x) over the classes.
+
+    The three grids V_occ, V_rgb, V_sem are channel slices of one tensor, so one trilinear lookup
+    serves all three. The semantic head is the identity (softmax of the interpolated V_sem, no
+    positional encoding), as the paper states; colour has no view dependence.
+    """
+
+    def __init__(self, cfg: FieldConfig, seed: int = 0):
+        super().__init__()
+        self.cfg = cfg
+        r = cfg.grid_resolution
+        channels = cfg.occ_channels + cfg.rgb_channels + cfg.sem_channels
+        self.grid = nn.Parameter(torch.zeros(1, channels, r, r, r))
+        pe_dim = 3 * (1 + 2 * cfg.pe_frequencies)
+        generator_state = torch.random.get_rng_state()
+        torch.manual_seed(seed)  # MLP initialisation is seeded, and the global state is restored after
+        self.occ_mlp = mlp(cfg.occ_channels + pe_dim, cfg.occ_hidden, 1)
+        self.rgb_mlp = mlp(cfg.rgb_channels + pe_dim, cfg.rgb_hidden, 3)
+        torch.random.set_rng_state(generator_state)
+        self._splits = (cfg.occ_channels, cfg.rgb_channels, cfg.sem_channels)
+
+    @property
+    def V_occ(self) -> torch.Tensor:
+        return self.grid[:, : self._splits[0]]
+
+    @property
+    def V_rgb(self) -> torch.Tensor:
+        return self.grid[:, self._splits[0] : self._splits[0] + self._splits[1]]
+
+    @property
+    def V_sem(self) -> torch.Tensor:
+        return self.grid[:, self._splits[0] + self._splits[1] :]
+
+    @property
+    def device(self) -> torch.device:
+        return self.grid.device
+
+    def normalise(self, x: torch.Tensor) -> torch.Tensor:
+        """World coordinates in the scene cube -> [-1, 1]^3."""
+        return x / self.cfg.bound
+
+    def features(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(f_occ, f_rgb, f_sem, gamma(x)) at world points x (N, 3)."""
+        xn = self.normalise(x)
+        f = trilinear(self.grid, xn)
+        f_occ, f_rgb, f_sem = torch.split(f, self._splits, dim=1)
+        return f_occ, f_rgb, f_sem, positional_encoding(xn, self.cfg.pe_frequencies)
+
+    def occupancy_from(self, f_occ: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:
+        """o = 1 - exp(-softplus(MLP_occ(f_occ, gamma) + shift)), a probability in [0, 1)."""
+        logit = self.occ_mlp(torch.cat([f_occ, pe], dim=1)).squeeze(1) + self.cfg.occupancy_shift
+        return -torch.expm1(-F.softplus(logit))
+
+    def colour_from(self, f_rgb: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:
+        """c = sigmoid(MLP_rgb(f_rgb, gamma)) in [0, 1]^3."""
+        return torch.sigmoid(self.rgb_mlp(torch.cat([f_rgb, pe], dim=1)))
+
+    def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Occupancy (N,), colour (N, 3) and semantic logits (N, P) at world points x (N, 3)."""
+        f_occ, f_rgb, f_sem, pe = self.features(x)
+        return {"occ": self.occupancy_from(f_occ, pe), "rgb": self.colour_from(f_rgb, pe), "sem_logits": f_sem}
+
+    @torch.no_grad()
+    def query(self, x: torch.Tensor, chunk: int = 262144) -> dict[str, torch.Tensor]:
+        """Occupancy and semantic probabilities at many points, in chunks, without gradients."""
+        occ, sem = [], []
+        for part in torch.split(x, chunk):
+            f_occ, _, f_sem, pe = self.features(part)
+            occ.append(self.occupancy_from(f_occ, pe))
+            sem.append(torch.softmax(f_sem, dim=1))
+        return {"occ": torch.cat(occ), "sem": torch.cat(sem)}

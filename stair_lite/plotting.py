@@ -1,0 +1,95 @@
+"""Figures shared by the notebooks and the command line: images, scenes, hemisphere views, camera paths."""
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+import numpy as np
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+from .classes import CLASS_COLOURS, CLASS_NAMES, colourise_labels
+from .geometry import HEMISPHERE_RADIUS, view_to_position
+
+
+def show_measurement(m, title: str = "", axes=None):
+    """rgb, depth and labels of a Measurement side by side."""
+    if axes is None:
+        _, axes = plt.subplots(1, 3, figsize=(11, 3.6))
+    axes[0].imshow(m.rgb)
+    axes[0].set_title(f"{title} rgb".strip())
+    depth = np.ma.masked_equal(m.depth, 0.0)
+    im = axes[1].imshow(depth, cmap="viridis")
+    plt.colorbar(im, ax=axes[1], fraction=0.046, label="z-depth [m]")
+    axes[1].set_title("depth (blank: no hit)")
+    axes[2].imshow(colourise_labels(m.labels))
+    axes[2].set_title("labels")
+    for ax in axes:
+        ax.set_axis_off()
+    present = np.unique(m.labels)
+    handles = [plt.Rectangle((0, 0), 1, 1, color=CLASS_COLOURS[c]) for c in present]
+    axes[2].legend(handles, [CLASS_NAMES[c] for c in present], loc="lower right", fontsize=7, framealpha=0.8)
+    return axes
+
+
+def draw_mesh(ax, mesh, max_faces: int = 4000, alpha: float = 1.0, colour=None):
+    """Draw a trimesh on a 3-D axis with its face colours (or one ``colour``), thinning very dense meshes."""
+    faces = mesh.faces
+    step = max(1, len(faces) // max_faces)
+    tris = mesh.vertices[faces[::step]]
+    if colour is None and mesh.visual.kind == "face":
+        colours = mesh.visual.face_colors[::step, :3] / 255.0
+    else:
+        colours = np.broadcast_to(np.asarray(colour if colour is not None else (0.6, 0.6, 0.6), float), (len(tris), 3))
+    ax.add_collection3d(Poly3DCollection(tris, facecolors=colours, edgecolor="none", alpha=alpha))
+
+
+def draw_scene(ax, scene, ground: bool = False):
+    """Draw a scene's objects (and optionally its ground) on a 3-D axis with equal scaling."""
+    for mesh in scene.object_meshes:
+        draw_mesh(ax, mesh)
+    if ground:
+        draw_mesh(ax, scene.ground, alpha=0.3)
+    set_equal_3d(ax, 1.6)
+
+
+def set_equal_3d(ax, half: float, z_range=(0.0, None)):
+    """Equal-aspect cube of half-width ``half`` around the origin (z from 0 by default)."""
+    ax.set_xlim(-half, half)
+    ax.set_ylim(-half, half)
+    ax.set_zlim(z_range[0], z_range[1] if z_range[1] is not None else 2 * half)
+    ax.set_box_aspect((2, 2, 2 if z_range[1] is None else (z_range[1] - z_range[0]) / half))
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+
+
+def draw_hemisphere(ax, radius: float = HEMISPHERE_RADIUS, alpha: float = 0.15):
+    """A wireframe of the hemispherical action space."""
+    el, az = np.meshgrid(np.linspace(0, np.pi / 2, 7), np.linspace(0, 2 * np.pi, 25))
+    p = view_to_position(el, az, radius)
+    ax.plot_wireframe(p[..., 0], p[..., 1], p[..., 2], color="grey", alpha=alpha, linewidth=0.6)
+
+
+def draw_cameras(ax, poses, colour="tab:orange", size: float = 0.25, path: bool = False, labels: bool = False):
+    """Camera centres with a short viewing-direction arrow each; optionally joined as a path and numbered."""
+    poses = np.asarray(poses)
+    centres, forwards = poses[:, :3, 3], poses[:, :3, 2]
+    ax.quiver(*centres.T, *(forwards * size).T, color=colour, linewidth=1.2)
+    ax.scatter(*centres.T, color=colour, s=12, depthshade=False)
+    if path:
+        ax.plot(*centres.T, color=colour, linewidth=1.5)
+    if labels:
+        for i, c in enumerate(centres):
+            ax.text(*c, str(i + 1), fontsize=8)
+
+
+def hemisphere_scatter(ax, views, values=None, cmap="magma", s=18, **kw):
+    """Top-down map of views (elevation, azimuth): x/y of the camera centre, coloured by ``values``."""
+    views = np.asarray(views)
+    p = view_to_position(views[:, 0], views[:, 1], 1.0)
+    sc = ax.scatter(p[:, 0], p[:, 1], c=values, cmap=cmap if values is not None else None, s=s, **kw)
+    ax.add_patch(plt.Circle((0, 0), 1.0, fill=False, color="grey", lw=0.8))
+    ax.set_aspect("equal")
+    ax.set_xlim(-1.1, 1.1)
+    ax.set_ylim(-1.1, 1.1)
+    ax.set_xlabel("x / r (top-down)")
+    ax.set_ylabel("y / r")
+    return sc

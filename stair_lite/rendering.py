@@ -1,0 +1,155 @@
+"""Occupancy volume rendering (paper Sec. III-B, Eqs. 2-5, following UNISURF).
+
+Introduced in notebook 02 (colour and depth) and notebook 03 (semantics, target-only renders).
+Along a ray with samples x_1..x_N: T_i = prod_{j<i} (1 - o_j), w_i = o_i T_i, and
+C = sum w_i c_i, D = sum w_i d_i, S = sum w_i s_i. What the ray does not hit (1 - sum w_i) is
+composited as white colour, depth 0 and the background class, matching the measurements.
+"""
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from .classes import BACKGROUND, NUM_CLASSES
+from .config import RenderConfig
+from .geometry import Intrinsics, pixel_rays
+
+
+def ray_box_intersection(origins: torch.Tensor, dirs: torch.Tensor, bound: float, near: float):
+    """Entry and exit ray parameters of the cube [-bound, bound]^3 (slab method); entry clamped to >= near.
+
+    Returns (t_near, t_far, hit) with hit False where the ray misses the cube.
+    """
+    safe = torch.where(dirs.abs() < 1e-12, torch.full_like(dirs, 1e-12), dirs)
+    t0, t1 = (-bound - origins) / safe, (bound - origins) / safe
+    t_near = torch.minimum(t0, t1).amax(dim=1).clamp(min=near)
+    t_far = torch.maximum(t0, t1).amin(dim=1)
+    return t_near, t_far, t_far > t_near
+
+
+def sample_along_rays(
+    t_near: torch.Tensor,
+    t_far: torch.Tensor,
+    n_samples: int,
+    generator: torch.Generator | None = None,
+    depth: torch.Tensor | None = None,
+    n_surface: int = 0,
+    band: float = 0.08,
+) -> torch.Tensor:
+    """Sorted sample parameters t (R, S) per ray.
+
+    ``n_samples`` uniform strata fill [t_near, t_far]: at their centres, or jittered within each
+    stratum when a ``generator`` is given (training). With ``depth`` and ``n_surface`` > 0, another
+    ``n_surface`` strata fill [depth - band, depth + band] on rays that hit something (depth > 0),
+    so training sees the surface finely; on other rays they are spread uniformly like the rest.
+    """
+    r = t_near.shape[0]
+    device = t_near.device
+
+    def strata(lo, hi, n):
+        offsets = (
+            torch.rand(r, n, generator=generator, device=device) if generator is not None else torch.full((r, n), 0.5, device=device)
+        )
+        return lo[:, None] + (hi - lo)[:, None] * (torch.arange(n, device=device) + offsets) / n
+
+    t = strata(t_near, t_far, n_samples)
+    if depth is not None and n_surface > 0:
+        hit = depth > 0
+        lo = torch.where(hit, (depth - band).clamp(min=0.0), t_near).maximum(t_near)
+        hi = torch.where(hit, depth + band, t_far).minimum(t_far)
+        hi = torch.maximum(hi, lo)
+        t = torch.sort(torch.cat([t, strata(lo, hi, n_surface)], dim=1), dim=1).values
+    return t
+
+
+def compositing_weights(occ: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Eq. 5: transmittance T_i = prod_{j<i} (1 - o_j) and weights w_i = o_i T_i, for occ (R, S)."""
+    transmittance = torch.cumprod(torch.cat([torch.ones_like(occ[:, :1]), 1.0 - occ[:, :-1]], dim=1), dim=1)
+    return occ * transmittance, transmittance
+
+
+def render_rays(
+    field,
+    origins: torch.Tensor,
+    dirs: torch.Tensor,
+    cfg: RenderConfig,
+    n_samples: int | None = None,
+    targets: tuple[int, ...] | None = None,
+    generator: torch.Generator | None = None,
+    depth: torch.Tensor | None = None,
+    colour_weight_threshold: float = 1e-5,
+) -> dict[str, torch.Tensor]:
+    """Render colour (R, 3), depth (R,), semantic probabilities (R, P), accumulated weight (R,) of rays.
+
+    ``targets``: target-only rendering for evaluation: the occupancy of samples whose semantic
+    argmax is not a target class is set to zero (paper Sec. IV-A). ``generator``/``depth`` switch on
+    training-time jitter and depth-guided samples. Colour is evaluated only at samples whose weight
+    exceeds ``colour_weight_threshold`` (the others cannot change the pixel).
+    """
+    bound = field.cfg.bound
+    t_near, t_far, hit = ray_box_intersection(origins, dirs, bound, cfg.near)
+    t_far = torch.where(hit, t_far, t_near + 1e-3)
+    t = sample_along_rays(
+        t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
+        cfg.surface_band,
+    )
+    r, s = t.shape
+    points = origins[:, None, :] + t[..., None] * dirs[:, None, :]
+    f_occ, f_rgb, f_sem, pe = field.features(points.reshape(-1, 3))
+    occ = field.occupancy_from(f_occ, pe).view(r, s)
+    occ = occ * hit[:, None]
+    sem_logits = f_sem.view(r, s, -1)
+    if targets is not None:
+        keep = torch.isin(sem_logits.argmax(dim=-1), torch.as_tensor(targets, device=occ.device))
+        occ = occ * keep
+    weights, transmittance = compositing_weights(occ)
+    acc = weights.sum(dim=1)
+
+    rgb = torch.zeros(r * s, 3, device=occ.device, dtype=occ.dtype)
+    active = (weights.detach() > colour_weight_threshold).view(-1)
+    if active.any():
+        rgb = rgb.index_put((active.nonzero().squeeze(1),), field.colour_from(f_rgb[active], pe[active]))
+    colour = (weights[..., None] * rgb.view(r, s, 3)).sum(dim=1) + (1.0 - acc)[:, None]
+    depth_map = (weights * t).sum(dim=1)
+    # Semantic rendering uses detached weights, as the reference code does: semantics do not move geometry.
+    sem = (weights.detach()[..., None] * torch.softmax(sem_logits, dim=-1)).sum(dim=1)
+    sem = sem + torch.nn.functional.one_hot(torch.tensor(BACKGROUND), NUM_CLASSES).to(sem) * (1.0 - acc.detach())[:, None]
+    return {
+        "rgb": colour,
+        "depth": depth_map,
+        "sem": sem,
+        "acc": acc,
+        "weights": weights,
+        "transmittance": transmittance,
+        "occ": occ,
+        "t": t,
+    }
+
+
+@torch.no_grad()
+def render_image(
+    field,
+    intrinsics: Intrinsics,
+    pose: np.ndarray,
+    cfg: RenderConfig,
+    targets: tuple[int, ...] | None = None,
+    n_samples: int | None = None,
+) -> dict[str, np.ndarray]:
+    """Render a whole image: rgb (H, W, 3), depth (H, W), labels (H, W) (argmax of S), acc (H, W)."""
+    origins, dirs = pixel_rays(intrinsics, pose)
+    device = field.device
+    origins = torch.as_tensor(origins, dtype=torch.float32, device=device)
+    dirs = torch.as_tensor(dirs, dtype=torch.float32, device=device)
+    parts = []
+    for o, d in zip(torch.split(origins, cfg.chunk_rays), torch.split(dirs, cfg.chunk_rays)):
+        out = render_rays(field, o, d, cfg, n_samples=n_samples, targets=targets)
+        parts.append({k: out[k] for k in ("rgb", "depth", "sem", "acc")})
+    h, w = intrinsics.height, intrinsics.width
+    cat = {k: torch.cat([p[k] for p in parts]) for k in parts[0]}
+    return {
+        "rgb": cat["rgb"].clamp(0, 1).view(h, w, 3).cpu().numpy(),
+        "depth": cat["depth"].view(h, w).cpu().numpy(),
+        "labels": cat["sem"].argmax(dim=1).view(h, w).cpu().numpy(),
+        "sem": cat["sem"].view(h, w, -1).cpu().numpy(),
+        "acc": cat["acc"].view(h, w).cpu().numpy(),
+    }

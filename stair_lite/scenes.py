@@ -1,0 +1,362 @@
+"""Scene specifications (small JSON files), scene building, the random scene generator and ground truth.
+
+Introduced in notebook 01. A scene is a few class meshes standing on a ground plane (class 0) at
+z = 0 inside the cube [-1.5, 1.5]^3, plus the scene's default target classes (the paper's Sec. IV-A).
+Colour is baked into the mesh faces with a world-fixed Lambert light, so what the camera sees of
+a surface does not depend on the viewpoint: the field has no view dependence either.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from .classes import BACKGROUND, CLASS_NAMES, class_id, target_ids
+from .meshes import class_mesh
+
+SCENE_DIR = Path(__file__).resolve().parent.parent / "data" / "scenes"
+CUBE_HALF = 1.5  # the scene cube is [-1.5, 1.5]^3
+GROUND_SIZE = 3.0
+GROUND_THICKNESS = 0.04
+GROUND_COLOUR = (0.62, 0.60, 0.55)
+LIGHT_DIRECTION = np.array([0.35, 0.55, 1.0]) / np.linalg.norm([0.35, 0.55, 1.0])  # towards the light
+AMBIENT, DIFFUSE = 0.45, 0.55
+
+# A default surface colour per class (floats), used when an object spec gives none.
+DEFAULT_COLOURS = {
+    "car": (0.80, 0.15, 0.12),
+    "chair": (0.55, 0.35, 0.20),
+    "table": (0.75, 0.60, 0.35),
+    "sofa": (0.15, 0.45, 0.55),
+    "airplane": (0.35, 0.40, 0.75),
+    "camera": (0.15, 0.15, 0.18),
+}
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """One object: its class, mesh source ("procedural" or a real mesh name or file), pose and look."""
+
+    cls: int
+    position: tuple[float, float]
+    yaw_deg: float = 0.0
+    scale: float = 1.0
+    mesh: str = "procedural"
+    seed: int = 0
+    colour: tuple[float, float, float] | None = None
+
+    @property
+    def class_name(self) -> str:
+        return CLASS_NAMES[self.cls]
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """A whole scene: name, objects and the default target classes."""
+
+    name: str
+    objects: tuple[ObjectSpec, ...]
+    targets: tuple[int, ...]
+    description: str = ""
+
+    def to_json(self) -> dict:
+        """The JSON form, with class names instead of ids."""
+        objects = []
+        for obj in self.objects:
+            d = asdict(obj)
+            d["class"] = CLASS_NAMES[d.pop("cls")]
+            d["position"] = list(obj.position)
+            if obj.colour is None:
+                d.pop("colour")
+            objects.append(d)
+        return {
+            "name": self.name,
+            "description": self.description,
+            "targets": [CLASS_NAMES[t] for t in self.targets],
+            "objects": objects,
+        }
+
+
+@lru_cache(maxsize=256)
+def _unplaced_mesh(cls: int, source: str, seed: int) -> trimesh.Trimesh:
+    """Class meshes are pure functions of (class, source, seed): build each once per process."""
+    return class_mesh(cls, source, seed=seed)
+
+
+def _bake_colour(mesh: trimesh.Trimesh, colour) -> trimesh.Trimesh:
+    """Give every face a view-independent colour: colour * (ambient + diffuse * max(0, n . l))."""
+    shade = AMBIENT + DIFFUSE * np.clip(mesh.face_normals @ LIGHT_DIRECTION, 0.0, None)
+    rgb = np.clip(np.asarray(colour, dtype=np.float64)[None, :] * shade[:, None], 0.0, 1.0)
+    rgba = np.concatenate([np.round(rgb * 255), np.full((len(rgb), 1), 255)], axis=1).astype(np.uint8)
+    mesh = mesh.copy()
+    mesh.visual = trimesh.visual.ColorVisuals(mesh, face_colors=rgba)
+    return mesh
+
+
+def ground_mesh() -> trimesh.Trimesh:
+    """The rendered ground: a thin slab whose top face is the z = 0 plane, filling the cube's floor."""
+    slab = trimesh.creation.box(extents=(GROUND_SIZE, GROUND_SIZE, GROUND_THICKNESS))
+    slab.apply_translation((0.0, 0.0, -GROUND_THICKNESS / 2))
+    return _bake_colour(slab, GROUND_COLOUR)
+
+
+def _convex_hull_2d(points: np.ndarray) -> np.ndarray:
+    """Andrew's monotone chain: the convex hull of 2-D points, counter-clockwise."""
+    pts = np.unique(np.round(points, 9), axis=0)
+    if len(pts) <= 2:
+        return pts
+
+    def turn(o, a, b):  # z component of (a - o) x (b - o): > 0 for a left turn
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    def half(seq):
+        hull = []
+        for p in seq:
+            while len(hull) >= 2 and turn(hull[-2], hull[-1], p) <= 0:
+                hull.pop()
+            hull.append(p)
+        return hull
+
+    lower, upper = half(pts), half(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _polygons_overlap(a: np.ndarray, b: np.ndarray) -> bool:
+    """Separating-axis test for two convex polygons: True when their interiors intersect."""
+    for poly in (a, b):
+        edges = np.roll(poly, -1, axis=0) - poly
+        for normal in np.stack([-edges[:, 1], edges[:, 0]], axis=1):
+            pa, pb = a @ normal, b @ normal
+            if pa.max() <= pb.min() + 1e-9 or pb.max() <= pa.min() + 1e-9:
+                return False
+    return True
+
+
+def meshes_interpenetrate(a: trimesh.Trimesh, b: trimesh.Trimesh) -> bool:
+    """Whether two placed objects intersect.
+
+    Watertight meshes (all procedural ones) get an exact test: the volume of their boolean
+    intersection. Other meshes have no inside, so their ground footprints (convex hulls) must not
+    overlap, a conservative stand-in.
+    """
+    (alo, ahi), (blo, bhi) = a.bounds, b.bounds
+    if np.any(ahi <= blo) or np.any(bhi <= alo):
+        return False
+    if a.is_watertight and b.is_watertight:
+        common = trimesh.boolean.intersection([a, b], engine="manifold")
+        return len(common.faces) > 0 and common.volume > 1e-7
+    return _polygons_overlap(_convex_hull_2d(a.vertices[:, :2]), _convex_hull_2d(b.vertices[:, :2]))
+
+
+@dataclass
+class Scene:
+    """A built scene: world-frame, colour-baked meshes of the objects, and the ground."""
+
+    spec: SceneSpec
+    object_meshes: list[trimesh.Trimesh] = field(repr=False)
+    ground: trimesh.Trimesh = field(repr=False)
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def targets(self) -> tuple[int, ...]:
+        return self.spec.targets
+
+    @property
+    def object_classes(self) -> list[int]:
+        return [obj.cls for obj in self.spec.objects]
+
+    @property
+    def classes_present(self) -> tuple[int, ...]:
+        """Object classes that occur in this scene (sorted ids)."""
+        return tuple(sorted(set(self.object_classes)))
+
+    def check_targets(self, targets) -> tuple[int, ...]:
+        """Normalise ``targets`` and refuse classes that do not occur in the scene."""
+        ids = target_ids(targets)
+        missing = [CLASS_NAMES[t] for t in ids if t not in self.classes_present]
+        if missing:
+            present = ", ".join(CLASS_NAMES[c] for c in self.classes_present)
+            raise ValueError(f"target classes {missing} do not occur in scene {self.name!r} (it has: {present})")
+        return ids
+
+    def labelled_meshes(self) -> list[tuple[trimesh.Trimesh, int]]:
+        """Every mesh with its class id, ground first."""
+        return [(self.ground, BACKGROUND)] + list(zip(self.object_meshes, self.object_classes))
+
+    def target_mesh(self, targets=None) -> trimesh.Trimesh:
+        """The ground-truth mesh of the target objects only (what the paper's mesh metrics compare to)."""
+        ids = self.check_targets(self.targets if targets is None else targets)
+        parts = [m for m, c in zip(self.object_meshes, self.object_classes) if c in ids]
+        return trimesh.util.concatenate(parts)
+
+
+def build_scene(spec: SceneSpec) -> Scene:
+    """Build meshes for a spec, placing each object, and check it is a valid scene.
+
+    Raises ValueError when an object leaves the cube or two objects interpenetrate.
+    """
+    meshes, placed = [], []
+    for index, obj in enumerate(spec.objects):
+        mesh = _unplaced_mesh(obj.cls, obj.mesh, obj.seed).copy()
+        if obj.scale <= 0:
+            raise ValueError(f"object {index} ({obj.class_name}): scale must be positive, got {obj.scale!r}")
+        mesh.apply_scale(obj.scale)
+        yaw = trimesh.transformations.rotation_matrix(np.radians(obj.yaw_deg), (0, 0, 1))
+        mesh.apply_transform(yaw)
+        mesh.apply_translation((obj.position[0], obj.position[1], 0.0))
+        lo, hi = mesh.bounds
+        if np.any(lo < -CUBE_HALF) or np.any(hi > CUBE_HALF):
+            raise ValueError(
+                f"object {index} ({obj.class_name}) at position {list(obj.position)} extends outside the scene cube "
+                f"[-{CUBE_HALF}, {CUBE_HALF}]^3: bounds {np.round(lo, 3).tolist()} .. {np.round(hi, 3).tolist()}"
+            )
+        for other, other_mesh in enumerate(placed):
+            if meshes_interpenetrate(mesh, other_mesh):
+                raise ValueError(
+                    f"objects {other} ({spec.objects[other].class_name}) and {index} ({obj.class_name}) overlap "
+                    f"(positions {list(spec.objects[other].position)} and {list(obj.position)})"
+                )
+        placed.append(mesh)
+        colour = obj.colour if obj.colour is not None else DEFAULT_COLOURS[obj.class_name]
+        meshes.append(_bake_colour(mesh, colour))
+    return Scene(spec=spec, object_meshes=meshes, ground=ground_mesh())
+
+
+def _require(d: dict, key: str, where: str):
+    if key not in d:
+        raise ValueError(f"{where}: missing field {key!r}")
+    return d[key]
+
+
+def spec_from_json(data: dict, source: str = "scene") -> SceneSpec:
+    """Validate a scene's JSON dictionary and turn it into a SceneSpec (errors name the field and value)."""
+    if not isinstance(data, dict):
+        raise ValueError(f"{source}: a scene must be a JSON object, got {type(data).__name__}")
+    raw_objects = _require(data, "objects", source)
+    if not isinstance(raw_objects, list) or not raw_objects:
+        raise ValueError(f"{source}: 'objects' must be a non-empty list, got {raw_objects!r}")
+    objects = []
+    for i, o in enumerate(raw_objects):
+        where = f"{source}: object {i}"
+        if not isinstance(o, dict):
+            raise ValueError(f"{where} must be a JSON object, got {o!r}")
+        position = _require(o, "position", where)
+        if not (isinstance(position, (list, tuple)) and len(position) == 2 and all(isinstance(p, (int, float)) for p in position)):
+            raise ValueError(f"{where}: 'position' must be [x, y] in metres, got {position!r}")
+        colour = o.get("colour")
+        if colour is not None and not (len(colour) == 3 and all(0.0 <= c <= 1.0 for c in colour)):
+            raise ValueError(f"{where}: 'colour' must be three floats in [0, 1], got {colour!r}")
+        for key in ("yaw_deg", "scale"):
+            if key in o and not isinstance(o[key], (int, float)):
+                raise ValueError(f"{where}: {key!r} must be a number, got {o[key]!r}")
+        objects.append(
+            ObjectSpec(
+                cls=class_id(_require(o, "class", where)),
+                position=(float(position[0]), float(position[1])),
+                yaw_deg=float(o.get("yaw_deg", 0.0)),
+                scale=float(o.get("scale", 1.0)),
+                mesh=str(o.get("mesh", "procedural")),
+                seed=int(o.get("seed", 0)),
+                colour=None if colour is None else tuple(float(c) for c in colour),
+            )
+        )
+    classes = {obj.cls for obj in objects}
+    targets = target_ids(_require(data, "targets", source))
+    missing = [CLASS_NAMES[t] for t in targets if t not in classes]
+    if missing:
+        raise ValueError(f"{source}: targets {missing} do not occur among the scene's objects")
+    return SceneSpec(
+        name=str(data.get("name", source)), objects=tuple(objects), targets=targets, description=str(data.get("description", ""))
+    )
+
+
+def list_scenes() -> list[str]:
+    """Names of the scenes shipped in data/scenes."""
+    return sorted(p.stem for p in SCENE_DIR.glob("*.json"))
+
+
+def load_scene_spec(name_or_path: str | Path) -> SceneSpec:
+    """Read a scene spec by shipped name ("scene1") or by path to a JSON file."""
+    path = Path(name_or_path)
+    if path.suffix != ".json":
+        path = SCENE_DIR / f"{name_or_path}.json"
+        if not path.exists():
+            raise ValueError(f"unknown scene {str(name_or_path)!r}; shipped scenes: {', '.join(list_scenes())}")
+    if not path.exists():
+        raise FileNotFoundError(f"scene file not found: {path}")
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise ValueError(f"scene file {path} is not valid JSON: {err}") from None
+    return spec_from_json(data, source=str(path))
+
+
+def load_scene(name_or_path: str | Path) -> Scene:
+    """Load and build a scene by shipped name or JSON path."""
+    return build_scene(load_scene_spec(name_or_path))
+
+
+def save_scene_spec(spec: SceneSpec, path: str | Path) -> Path:
+    """Write a spec as JSON (the format ``load_scene_spec`` reads)."""
+    path = Path(path)
+    data = spec.to_json()
+    objects = ",\n".join(f"    {json.dumps(o)}" for o in data.pop("objects"))
+    head = json.dumps(data, indent=2)[:-2]  # drop the closing brace: objects follow, one per line
+    path.write_text(f"{head},\n  \"objects\": [\n{objects}\n  ]\n}}\n")
+    return path
+
+
+def place_objects(items, rng: np.random.Generator, max_radius: float = 1.0, max_tries: int = 200) -> tuple[ObjectSpec, ...]:
+    """Place objects one by one at random positions within ``max_radius`` of the origin and random yaw.
+
+    ``items`` are (class, mesh source) pairs; a position is redrawn until the object stays inside
+    the cube and touches no object placed before it.
+    """
+    placed: list[ObjectSpec] = []
+    for cls, source in items:
+        cls = class_id(cls)
+        for _ in range(max_tries):
+            radius, angle = max_radius * np.sqrt(rng.uniform()), rng.uniform(0, 2 * np.pi)
+            candidate = ObjectSpec(
+                cls=cls,
+                position=(round(float(radius * np.cos(angle)), 3), round(float(radius * np.sin(angle)), 3)),
+                yaw_deg=round(float(rng.uniform(0, 360)), 1),
+                mesh=source,
+                seed=int(rng.integers(0, 10_000)),
+            )
+            try:
+                build_scene(SceneSpec("probe", tuple(placed + [candidate]), (cls,)))
+            except ValueError:
+                continue
+            placed.append(candidate)
+            break
+        else:
+            raise ValueError(f"could not place an object of class {CLASS_NAMES[cls]!r} without overlap in {max_tries} tries")
+    return tuple(placed)
+
+
+def random_scene_spec(
+    seed: int,
+    n_objects: int = 6,
+    targets=("car",),
+    classes=("car", "chair", "table", "sofa", "airplane", "camera"),
+    max_radius: float = 1.0,
+) -> SceneSpec:
+    """A seeded random scene of ``n_objects`` procedural objects; every target class appears at least once."""
+    if n_objects < 1:
+        raise ValueError(f"a scene needs at least one object, got n_objects={n_objects!r}")
+    rng = np.random.default_rng(seed)
+    target_list = list(target_ids(targets))
+    if n_objects < len(target_list):
+        raise ValueError(f"n_objects={n_objects} is fewer than the {len(target_list)} target classes")
+    pool = [class_id(c) for c in classes]
+    wanted = target_list + [int(rng.choice(pool)) for _ in range(n_objects - len(target_list))]
+    objects = place_objects([(c, "procedural") for c in wanted], rng, max_radius)
+    return SceneSpec(name=f"random_{seed}", objects=objects, targets=tuple(target_list), description=f"random scene, seed {seed}")

@@ -1,0 +1,139 @@
+import json
+
+import numpy as np
+import pytest
+
+from stair_lite.classes import class_id, target_ids
+from stair_lite.scenes import (
+    ObjectSpec,
+    SceneSpec,
+    build_scene,
+    list_scenes,
+    load_scene,
+    load_scene_spec,
+    random_scene_spec,
+    save_scene_spec,
+    spec_from_json,
+)
+
+PAPER_TARGETS = {"scene1": ["car"], "scene2": ["camera"], "scene3": ["sofa"], "scene4": ["car", "airplane"]}
+
+
+def test_shipped_scenes_follow_the_paper():
+    assert {"scene1", "scene2", "scene3", "scene4", "ablation_two_chairs"} <= set(list_scenes())
+    for name, targets in PAPER_TARGETS.items():
+        scene = load_scene(name)
+        assert scene.targets == target_ids(targets)
+        assert len(scene.object_meshes) >= 5
+        assert len(scene.classes_present) >= 3
+        for obj in scene.spec.objects:
+            assert np.hypot(*obj.position) <= 1.0
+        for mesh in scene.object_meshes:
+            assert mesh.bounds[0][2] == pytest.approx(0.0, abs=1e-6)  # stands on the ground
+            assert np.all(np.abs(mesh.bounds) <= 1.5)
+
+
+def test_ablation_scene_hides_one_chair_from_the_top_view():
+    from stair_lite.geometry import Intrinsics, view_to_pose
+    from stair_lite.simulator import Simulator
+
+    scene = load_scene("ablation_two_chairs")
+    assert scene.targets == (class_id("chair"),)
+    chairs = [m for m, c in zip(scene.object_meshes, scene.object_classes) if c == class_id("chair")]
+    assert len(chairs) == 2
+    sim = Simulator(scene, Intrinsics.from_fov(200, 200))
+    top = sim.render(view_to_pose(np.pi / 2, 0.0))
+    from stair_lite.measurement import back_project
+
+    points, _, labels = back_project(top)
+    seen = points[labels == class_id("chair")]
+
+    def seen_near(mesh):
+        lo, hi = mesh.bounds
+        return np.sum(np.all((seen >= lo - 0.01) & (seen <= hi + 0.01), axis=1))
+
+    counts = sorted(seen_near(m) for m in chairs)
+    assert counts[0] == 0 and counts[1] > 100  # one chair hidden from above, the other in view
+    side = sim.render(view_to_pose(0.12, np.radians(190)))
+    points, _, labels = back_project(side)
+    seen = points[labels == class_id("chair")]
+    assert min(seen_near(m) for m in chairs) > 20  # a low side view sees both
+
+
+def test_target_mesh_contains_only_targets():
+    scene = load_scene("scene4")
+    mesh = scene.target_mesh()
+    expected = sum(len(m.faces) for m, c in zip(scene.object_meshes, scene.object_classes) if c in scene.targets)
+    assert len(mesh.faces) == expected
+
+
+def test_scene_json_round_trip(tmp_path):
+    spec = load_scene_spec("scene2")
+    path = save_scene_spec(spec, tmp_path / "copy.json")
+    assert load_scene_spec(path) == spec
+
+
+def test_random_scenes_are_seeded_and_valid():
+    a = random_scene_spec(3, n_objects=5, targets=["sofa"])
+    assert a == random_scene_spec(3, n_objects=5, targets=["sofa"])
+    assert a != random_scene_spec(4, n_objects=5, targets=["sofa"])
+    scene = build_scene(a)
+    assert class_id("sofa") in scene.classes_present
+    assert all(np.hypot(*o.position) <= 1.0 for o in a.objects)
+
+
+def test_unknown_class_name_is_named():
+    with pytest.raises(ValueError, match="unknown class name 'bicycle'"):
+        spec_from_json({"targets": ["car"], "objects": [{"class": "bicycle", "position": [0, 0]}]})
+
+
+def test_unknown_target_is_named():
+    with pytest.raises(ValueError, match="'boat'"):
+        target_ids(["boat"])
+    scene = load_scene("scene1")
+    with pytest.raises(ValueError, match="do not occur in scene"):
+        scene.check_targets(["airplane"])
+
+
+def test_malformed_json_is_named(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"objects": [')
+    with pytest.raises(ValueError, match="not valid JSON"):
+        load_scene_spec(bad)
+    bad.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0]}]}))
+    with pytest.raises(ValueError, match="'position' must be"):
+        load_scene_spec(bad)
+    bad.write_text(json.dumps({"targets": ["car"]}))
+    with pytest.raises(ValueError, match="missing field 'objects'"):
+        load_scene_spec(bad)
+
+
+def test_missing_scene_file_is_named(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nowhere.json"):
+        load_scene_spec(tmp_path / "nowhere.json")
+    with pytest.raises(ValueError, match="unknown scene 'scene99'"):
+        load_scene_spec("scene99")
+
+
+def test_missing_mesh_file_is_named(tmp_path):
+    spec = SceneSpec("s", (ObjectSpec(cls=1, position=(0.0, 0.0), mesh=str(tmp_path / "gone.obj")),), (1,))
+    with pytest.raises(FileNotFoundError, match="gone.obj"):
+        build_scene(spec)
+
+
+def test_object_outside_the_cube_is_named():
+    spec = SceneSpec("s", (ObjectSpec(cls=1, position=(1.4, 0.0)),), (1,))
+    with pytest.raises(ValueError, match=r"position \[1.4, 0.0\] extends outside the scene cube"):
+        build_scene(spec)
+
+
+def test_overlapping_objects_are_named():
+    spec = SceneSpec("s", (ObjectSpec(cls=1, position=(0.0, 0.0)), ObjectSpec(cls=4, position=(0.1, 0.0))), (1,))
+    with pytest.raises(ValueError, match=r"objects 0 \(car\) and 1 \(sofa\) overlap"):
+        build_scene(spec)
+
+
+def test_objects_may_stand_under_a_table_without_touching():
+    table = ObjectSpec(cls=3, position=(0.0, 0.0), scale=1.5, seed=1)
+    chair = ObjectSpec(cls=2, position=(0.0, 0.0), scale=0.9, seed=3)
+    build_scene(SceneSpec("s", (table, chair), (2,)))  # no error: nested, not interpenetrating

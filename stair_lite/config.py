@@ -5,7 +5,8 @@ by measurement (see ``benchmarks/`` and the README), trading grid resolution and
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
+from dataclasses import field as dataclass_field
 
 
 @dataclass(frozen=True)
@@ -77,11 +78,11 @@ class Preset:
     """Everything a mission needs, under one name."""
 
     name: str
-    field: FieldConfig = field(default_factory=FieldConfig)
-    render: RenderConfig = field(default_factory=RenderConfig)
-    train: TrainConfig = field(default_factory=TrainConfig)
-    eval: EvalConfig = field(default_factory=EvalConfig)
-    plan: PlanConfig = field(default_factory=PlanConfig)
+    field: FieldConfig = dataclass_field(default_factory=FieldConfig)
+    render: RenderConfig = dataclass_field(default_factory=RenderConfig)
+    train: TrainConfig = dataclass_field(default_factory=TrainConfig)
+    eval: EvalConfig = dataclass_field(default_factory=EvalConfig)
+    plan: PlanConfig = dataclass_field(default_factory=PlanConfig)
     budget: int = 10  # measurements per mission, the top view included
 
 

@@ -16,7 +16,7 @@ from skimage.measure import marching_cubes
 from .classes import BACKGROUND
 from .config import Preset
 from .geometry import Intrinsics, test_views, view_to_pose
-from .rendering import render_image
+from .rendering import build_skip_grid, render_image
 from .simulator import Simulator, target_only_image
 
 
@@ -112,9 +112,13 @@ class Evaluator:
         self.gt_points = sample_surface(self.gt_mesh, cfg.mesh_points, seed)
         self.gt_tree = cKDTree(self.gt_points)
 
-    def render_test_views(self, field) -> list[np.ndarray]:
-        """Target-only renders of the field at every test view."""
-        return [render_image(field, self.intrinsics, p, self.preset.render, targets=self.targets)["rgb"] for p in self.poses]
+    def render_test_views(self, field, skip_empty_space: bool = True) -> list[np.ndarray]:
+        """Target-only renders of the field at every test view (skipping space that holds no target)."""
+        skip = build_skip_grid(field, self.targets) if skip_empty_space else None
+        return [
+            render_image(field, self.intrinsics, p, self.preset.render, targets=self.targets, skip=skip)["rgb"]
+            for p in self.poses
+        ]
 
     def evaluate(self, field) -> dict:
         cfg = self.preset.eval

@@ -2,8 +2,11 @@
 interpolation (Eq. 1), a positional encoding gamma, and heads for occupancy, colour and semantics.
 
 Introduced in notebook 02 (occupancy and colour) and notebook 03 (semantics).
-Grid layout: ``grid[0, c, k, j, i]`` holds channel c at the vertex (x_i, y_j, z_k); vertices sit on the
-cube's corners, so vertex i is at x = -bound + i * 2 bound / (R - 1) (``align_corners=True``).
+Grid layout: the grids are stored channels-last as one table of shape (R^3, C): row (k R + j) R + i
+holds the features of vertex (x_i, y_j, z_k). Vertices sit on the cube's corners, so vertex i is at
+x = -bound + i * 2 bound / (R - 1), the convention of ``F.grid_sample(..., align_corners=True)``.
+A hand-written trilinear lookup with its own backward pass (a scatter-add into the touched rows)
+is about twice as fast on a CPU as ``grid_sample`` and gives the same numbers (notebook 02 checks).
 """
 from __future__ import annotations
 
@@ -24,10 +27,43 @@ def positional_encoding(x: torch.Tensor, n_frequencies: int) -> torch.Tensor:
     return torch.cat([x, torch.sin(scaled), torch.cos(scaled)], dim=-1)
 
 
-def trilinear(grid: torch.Tensor, x_normalised: torch.Tensor) -> torch.Tensor:
-    """interp(x, V) of Eq. 1: features (N, C) of a grid (1, C, D, H, W) at points (N, 3) in [-1, 1]^3."""
-    samples = F.grid_sample(grid, x_normalised.view(1, 1, 1, -1, 3), mode="bilinear", align_corners=True)
-    return samples.view(grid.shape[1], -1).t()
+def corner_indices_and_weights(x_normalised: torch.Tensor, resolution: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """The 8 surrounding vertices (row indices into the (R^3, C) table) and trilinear weights of points in [-1, 1]^3."""
+    r = resolution
+    p = (x_normalised.clamp(-1.0, 1.0) + 1.0) * 0.5 * (r - 1)
+    i0 = p.floor().clamp(0, r - 2)
+    f = p - i0
+    i0 = i0.long()
+    base = (i0[:, 2] * r + i0[:, 1]) * r + i0[:, 0]
+    offsets = torch.tensor([0, 1, r, r + 1, r * r, r * r + 1, r * r + r, r * r + r + 1], device=x_normalised.device)
+    fx, fy, fz = f[:, 0:1], f[:, 1:2], f[:, 2:3]
+    gx, gy, gz = 1 - fx, 1 - fy, 1 - fz
+    weights = torch.cat([gx * gy * gz, fx * gy * gz, gx * fy * gz, fx * fy * gz, gx * gy * fz, fx * gy * fz, gx * fy * fz, fx * fy * fz], 1)
+    return base[:, None] + offsets, weights
+
+
+class _TrilinearLookup(torch.autograd.Function):
+    """sum_k w_k V[idx_k]; the backward pass scatter-adds w_k * grad into the 8 touched rows."""
+
+    @staticmethod
+    def forward(ctx, table, index, weights):
+        ctx.save_for_backward(index, weights)
+        ctx.rows = table.shape[0]
+        return torch.einsum("nk,nkc->nc", weights, table[index])
+
+    @staticmethod
+    def backward(ctx, grad_out):
+        index, weights = ctx.saved_tensors
+        contributions = (weights[:, :, None] * grad_out[:, None, :]).reshape(-1, grad_out.shape[1])
+        grad_table = torch.zeros(ctx.rows, grad_out.shape[1], dtype=grad_out.dtype, device=grad_out.device)
+        grad_table.index_add_(0, index.reshape(-1), contributions)
+        return grad_table, None, None
+
+
+def trilinear(table: torch.Tensor, resolution: int, x_normalised: torch.Tensor) -> torch.Tensor:
+    """interp(x, V) of Eq. 1: features (N, C) of a grid stored as a (R^3, C) table, at points (N, 3) in [-1, 1]^3."""
+    index, weights = corner_indices_and_weights(x_normalised, resolution)
+    return _TrilinearLookup.apply(table, index, weights)
 
 
 def mlp(n_in: int, hidden: tuple[int, ...], n_out: int) -> nn.Sequential:
@@ -43,8 +79,8 @@ def mlp(n_in: int, hidden: tuple[int, ...], n_out: int) -> nn.Sequential:
 class SemanticField(nn.Module):
     """Occupancy o(x) in [0, 1], colour c(x) in [0, 1]^3 and semantic probabilities s(x) over the classes.
 
-    The three grids V_occ, V_rgb, V_sem are channel slices of one tensor, so one trilinear lookup
-    serves all three. The semantic head is the identity (softmax of the interpolated V_sem, no
+    The three grids V_occ, V_rgb, V_sem are channel slices of one (R^3, C) table, so one trilinear
+    lookup serves all three. The semantic head is the identity (softmax of the interpolated V_sem, no
     positional encoding), as the paper states; colour has no view dependence.
     """
 
@@ -53,7 +89,7 @@ class SemanticField(nn.Module):
         self.cfg = cfg
         r = cfg.grid_resolution
         channels = cfg.occ_channels + cfg.rgb_channels + cfg.sem_channels
-        self.grid = nn.Parameter(torch.zeros(1, channels, r, r, r))
+        self.grid = nn.Parameter(torch.zeros(r**3, channels))
         pe_dim = 3 * (1 + 2 * cfg.pe_frequencies)
         generator_state = torch.random.get_rng_state()
         torch.manual_seed(seed)  # MLP initialisation is seeded, and the global state is restored after
@@ -62,17 +98,24 @@ class SemanticField(nn.Module):
         torch.random.set_rng_state(generator_state)
         self._splits = (cfg.occ_channels, cfg.rgb_channels, cfg.sem_channels)
 
+    def _grid_view(self, start: int, stop: int) -> torch.Tensor:
+        r = self.cfg.grid_resolution
+        return self.grid[:, start:stop].t().reshape(stop - start, r, r, r)
+
     @property
     def V_occ(self) -> torch.Tensor:
-        return self.grid[:, : self._splits[0]]
+        """The occupancy feature grid, (T_occ, R, R, R) indexed [channel, z, y, x]."""
+        return self._grid_view(0, self._splits[0])
 
     @property
     def V_rgb(self) -> torch.Tensor:
-        return self.grid[:, self._splits[0] : self._splits[0] + self._splits[1]]
+        """The colour feature grid, (T_rgb, R, R, R)."""
+        return self._grid_view(self._splits[0], self._splits[0] + self._splits[1])
 
     @property
     def V_sem(self) -> torch.Tensor:
-        return self.grid[:, self._splits[0] + self._splits[1] :]
+        """The semantic grid, (T_sem, R, R, R): per-vertex class logits."""
+        return self._grid_view(self._splits[0] + self._splits[1], sum(self._splits))
 
     @property
     def device(self) -> torch.device:
@@ -85,7 +128,7 @@ class SemanticField(nn.Module):
     def features(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """(f_occ, f_rgb, f_sem, gamma(x)) at world points x (N, 3)."""
         xn = self.normalise(x)
-        f = trilinear(self.grid, xn)
+        f = trilinear(self.grid, self.cfg.grid_resolution, xn)
         f_occ, f_rgb, f_sem = torch.split(f, self._splits, dim=1)
         return f_occ, f_rgb, f_sem, positional_encoding(xn, self.cfg.pe_frequencies)
 

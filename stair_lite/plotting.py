@@ -25,7 +25,7 @@ def show_measurement(m, title: str = "", axes=None):
         ax.set_axis_off()
     present = np.unique(m.labels)
     handles = [plt.Rectangle((0, 0), 1, 1, color=CLASS_COLOURS[c]) for c in present]
-    axes[2].legend(handles, [CLASS_NAMES[c] for c in present], loc="lower right", fontsize=7, framealpha=0.8)
+    axes[2].legend(handles, [CLASS_NAMES[c] for c in present], loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
     return axes
 
 
@@ -47,7 +47,7 @@ def draw_scene(ax, scene, ground: bool = False):
         draw_mesh(ax, mesh)
     if ground:
         draw_mesh(ax, scene.ground, alpha=0.3)
-    set_equal_3d(ax, 1.6)
+    set_equal_3d(ax, 1.5, z_range=(0.0, 1.2))
 
 
 def set_equal_3d(ax, half: float, z_range=(0.0, None)):

@@ -68,6 +68,44 @@ def compositing_weights(occ: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return occ * transmittance, transmittance
 
 
+class SkipGrid:
+    """Empty-space skipping: a boolean lattice over the cube marking where the field may be occupied.
+
+    Built from the field itself (``build_skip_grid``); samples in cells marked False are treated as
+    empty (o = 0) without evaluating the field. Dilation by one cell keeps it conservative, and a
+    test compares skipped renders with exact ones.
+    """
+
+    def __init__(self, keep: torch.Tensor, bound: float):
+        self.keep = keep  # (R, R, R) bool, indexed [z, y, x] like the field's grids
+        self.bound = bound
+
+    def lookup(self, points: torch.Tensor) -> torch.Tensor:
+        """Whether each point (..., 3) lies in a kept cell (nearest lattice vertex)."""
+        r = self.keep.shape[0]
+        idx = ((points / self.bound + 1.0) * 0.5 * (r - 1)).round().long().clamp(0, r - 1)
+        return self.keep[idx[..., 2], idx[..., 1], idx[..., 0]]
+
+
+@torch.no_grad()
+def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: float = 1e-3) -> SkipGrid:
+    """Keep the cells near a vertex with occupancy above ``threshold`` and (with ``targets``) near a
+    vertex whose class argmax is a target; both masks are dilated by one cell, because a sample
+    between vertices mixes them. Target-only renders then touch only the target objects."""
+    r, b = field.cfg.grid_resolution, field.cfg.bound
+    axis = torch.linspace(-b, b, r, device=field.device)
+    z, y, x = torch.meshgrid(axis, axis, axis, indexing="ij")
+    q = field.query(torch.stack([x, y, z], dim=-1).reshape(-1, 3))
+
+    def dilate(mask):
+        return torch.nn.functional.max_pool3d(mask.view(1, 1, r, r, r).float(), 3, stride=1, padding=1).view(r, r, r) > 0
+
+    keep = dilate(q["occ"] > threshold)
+    if targets is not None:
+        keep &= dilate(torch.isin(q["sem"].argmax(dim=1), torch.as_tensor(targets, device=field.device)))
+    return SkipGrid(keep, b)
+
+
 def render_rays(
     field,
     origins: torch.Tensor,
@@ -77,17 +115,18 @@ def render_rays(
     targets: tuple[int, ...] | None = None,
     generator: torch.Generator | None = None,
     depth: torch.Tensor | None = None,
+    skip: SkipGrid | None = None,
     colour_weight_threshold: float = 1e-5,
 ) -> dict[str, torch.Tensor]:
     """Render colour (R, 3), depth (R,), semantic probabilities (R, P), accumulated weight (R,) of rays.
 
     ``targets``: target-only rendering for evaluation: the occupancy of samples whose semantic
     argmax is not a target class is set to zero (paper Sec. IV-A). ``generator``/``depth`` switch on
-    training-time jitter and depth-guided samples. Colour is evaluated only at samples whose weight
-    exceeds ``colour_weight_threshold`` (the others cannot change the pixel).
+    training-time jitter and depth-guided samples. ``skip`` leaves out samples in empty space.
+    Colour is evaluated only at samples whose weight exceeds ``colour_weight_threshold`` (the
+    others cannot change the pixel).
     """
-    bound = field.cfg.bound
-    t_near, t_far, hit = ray_box_intersection(origins, dirs, bound, cfg.near)
+    t_near, t_far, hit = ray_box_intersection(origins, dirs, field.cfg.bound, cfg.near)
     t_far = torch.where(hit, t_far, t_near + 1e-3)
     t = sample_along_rays(
         t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
@@ -95,20 +134,25 @@ def render_rays(
     )
     r, s = t.shape
     points = origins[:, None, :] + t[..., None] * dirs[:, None, :]
-    f_occ, f_rgb, f_sem, pe = field.features(points.reshape(-1, 3))
-    occ = field.occupancy_from(f_occ, pe).view(r, s)
-    occ = occ * hit[:, None]
-    sem_logits = f_sem.view(r, s, -1)
+    evaluate = hit[:, None].expand(r, s)
+    if skip is not None:
+        evaluate = evaluate & skip.lookup(points)
+    evaluate = evaluate.reshape(-1)
+    f_occ, f_rgb, f_sem, pe = field.features(points.reshape(-1, 3)[evaluate])
+    occ = torch.zeros(r * s, device=t.device).index_put((evaluate.nonzero().squeeze(1),), field.occupancy_from(f_occ, pe))
+    sem_logits = torch.zeros(r * s, f_sem.shape[1], device=t.device).index_put((evaluate.nonzero().squeeze(1),), f_sem)
+    occ, sem_logits = occ.view(r, s), sem_logits.view(r, s, -1)
     if targets is not None:
         keep = torch.isin(sem_logits.argmax(dim=-1), torch.as_tensor(targets, device=occ.device))
         occ = occ * keep
     weights, transmittance = compositing_weights(occ)
     acc = weights.sum(dim=1)
 
-    rgb = torch.zeros(r * s, 3, device=occ.device, dtype=occ.dtype)
+    rgb = torch.zeros(r * s, 3, device=t.device)
     active = (weights.detach() > colour_weight_threshold).view(-1)
     if active.any():
-        rgb = rgb.index_put((active.nonzero().squeeze(1),), field.colour_from(f_rgb[active], pe[active]))
+        rows = active[evaluate]  # positions of the active samples among the evaluated ones
+        rgb = rgb.index_put((active.nonzero().squeeze(1),), field.colour_from(f_rgb[rows], pe[rows]))
     colour = (weights[..., None] * rgb.view(r, s, 3)).sum(dim=1) + (1.0 - acc)[:, None]
     depth_map = (weights * t).sum(dim=1)
     # Semantic rendering uses detached weights, as the reference code does: semantics do not move geometry.
@@ -134,6 +178,7 @@ def render_image(
     cfg: RenderConfig,
     targets: tuple[int, ...] | None = None,
     n_samples: int | None = None,
+    skip: SkipGrid | None = None,
 ) -> dict[str, np.ndarray]:
     """Render a whole image: rgb (H, W, 3), depth (H, W), labels (H, W) (argmax of S), acc (H, W)."""
     origins, dirs = pixel_rays(intrinsics, pose)
@@ -142,7 +187,7 @@ def render_image(
     dirs = torch.as_tensor(dirs, dtype=torch.float32, device=device)
     parts = []
     for o, d in zip(torch.split(origins, cfg.chunk_rays), torch.split(dirs, cfg.chunk_rays)):
-        out = render_rays(field, o, d, cfg, n_samples=n_samples, targets=targets)
+        out = render_rays(field, o, d, cfg, n_samples=n_samples, targets=targets, skip=skip)
         parts.append({k: out[k] for k in ("rgb", "depth", "sem", "acc")})
     h, w = intrinsics.height, intrinsics.width
     cat = {k: torch.cat([p[k] for p in parts]) for k in parts[0]}

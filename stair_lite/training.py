@@ -112,6 +112,7 @@ class Trainer:
         self.optimizer = torch.optim.Adam(
             [{"params": [field.grid], "lr": train_cfg.lr_grid}, {"params": mlp_params, "lr": train_cfg.lr_mlp}],
             betas=(0.9, 0.99),
+            fused=True,
         )
         self.iterations = 0
 
@@ -140,19 +141,24 @@ class Trainer:
     def update(self, iterations: int | None = None) -> list[Losses]:
         """Train ``iterations`` steps (default: the config's per-view count) after a new measurement.
 
-        New rays: a random permutation of the newest measurement, cycled. Replay rays: drawn afresh
-        each iteration by inverse use count (disabled with ``replay=False``, to show forgetting).
+        New rays: a random permutation of the newest measurement, cycled. Replay rays: drawn by
+        inverse use count once per update, for all its iterations together (as the reference code
+        draws one active set per view), then dealt out in batches; ``replay=False`` switches replay
+        off, to show forgetting.
         """
         if len(self.buffer) == 0:
             raise ValueError("the measurement set is empty: add a measurement before training")
         iterations = self.cfg.iterations_per_view if iterations is None else iterations
         newest = self.rng.permutation(self.buffer.newest_indices())
+        replay = self.buffer.replay_indices(iterations * self.cfg.rays_replay, self.rng) if self.replay else np.zeros(0, int)
+        replay = self.rng.permutation(replay)
         history = []
         for i in range(iterations):
             start = (i * self.cfg.rays_new) % len(newest)
             index = np.take(newest, np.arange(start, start + self.cfg.rays_new), mode="wrap")
-            if self.replay:
-                index = np.concatenate([index, self.buffer.replay_indices(self.cfg.rays_replay, self.rng)])
+            if len(replay):
+                start = (i * self.cfg.rays_replay) % len(replay)
+                index = np.concatenate([index, np.take(replay, np.arange(start, start + self.cfg.rays_replay), mode="wrap")])
             np.add.at(self.buffer.use_counts, index, 1)
             history.append(self.step(self._batch(index)))
         return history

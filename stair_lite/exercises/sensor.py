@@ -1,0 +1,216 @@
+"""Checkers for the exercises of notebook 01 (the scene and the sensor).
+
+Each ``check_*`` takes the learner's function, calls it on several seeded random inputs, compares
+the answers with an independent computation written here in plain numpy, and raises
+``AssertionError`` with a hint when they differ. Where a wrong answer matches a common mistake
+(forgetting the pixel centre, swapping x and y, using range instead of z-depth, ...) the hint
+names that mistake. On success a checker prints one line and returns ``True``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import Intrinsics, view_to_pose
+from ..measurement import Measurement, back_project
+
+_ATOL = 1e-6
+
+
+def _random_K(rng: np.random.Generator) -> np.ndarray:
+    """A pinhole K with fx != fy and an off-centre principal point, so swapped axes show up."""
+    fx, fy = rng.uniform(80.0, 400.0, size=2)
+    cx, cy = rng.uniform(20.0, 200.0, size=2)
+    return np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+
+
+def _random_pose(rng: np.random.Generator) -> np.ndarray:
+    """A look-at pose of a random hemisphere view at a random radius."""
+    elevation = rng.uniform(0.05, 1.5)
+    azimuth = rng.uniform(0.0, 2 * np.pi)
+    return view_to_pose(elevation, azimuth, radius=rng.uniform(1.5, 3.0))
+
+
+def _as_array(value, shape, what: str) -> np.ndarray:
+    if value is None:
+        raise AssertionError(f"{what} returned None: fill in the function body (it still looks like the stub)")
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape != shape:
+        raise AssertionError(f"{what} returned shape {arr.shape}, expected {shape}")
+    return arr
+
+
+def _call(fn, *args):
+    """Call the learner's function; a stub that still raises NotImplementedError gets a clear message."""
+    try:
+        return fn(*args)
+    except NotImplementedError:
+        raise AssertionError(f"{getattr(fn, '__name__', 'the function')} raised NotImplementedError: "
+                             "replace the stub's body with your code") from None
+
+
+def _close(a, b, atol: float = _ATOL) -> bool:
+    return bool(np.allclose(a, b, atol=atol, rtol=1e-7))
+
+
+# --------------------------------------------------------------------------------------------------
+# Exercise 1: the camera-frame ray through a pixel
+# --------------------------------------------------------------------------------------------------
+def _ray_reference(u, v, K):
+    return np.array([(u + 0.5 - K[0, 2]) / K[0, 0], (v + 0.5 - K[1, 2]) / K[1, 1], 1.0])
+
+
+def check_pixel_to_ray(pixel_to_ray, n_trials: int = 50, seed: int = 0) -> bool:
+    """``pixel_to_ray(u, v, K)`` must return the camera-frame direction (x, y, 1) through the centre of
+    pixel (u, v) (u = column, v = row), with z component exactly 1 (so the ray parameter is z-depth)."""
+    rng = np.random.default_rng(seed)
+    for trial in range(n_trials):
+        K = _random_K(rng)
+        u, v = int(rng.integers(0, 400)), int(rng.integers(0, 300))
+        got = _as_array(_call(pixel_to_ray, u, v, K), (3,), "pixel_to_ray(u, v, K)")
+        want = _ray_reference(u, v, K)
+        if _close(got, want):
+            continue
+        where = f"for u={u}, v={v}, K=\n{np.round(K, 3)}\nyou returned {np.round(got, 6)}, expected {np.round(want, 6)}"
+        if _close(got, np.array([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], 1.0])):
+            hint = "you used the pixel's corner: the ray goes through the pixel CENTRE, at (u + 0.5, v + 0.5)"
+        elif _close(got, want / np.linalg.norm(want)):
+            hint = "you normalised the direction: keep z = 1 so that the ray parameter t is the z-depth"
+        elif _close(got, _ray_reference(v, u, K)) or _close(got, [want[1], want[0], 1.0]):
+            hint = "x and y are swapped: u is the column (image x, uses fx and cx), v is the row (image y, uses fy and cy)"
+        elif abs(got[2] - 1.0) > _ATOL:
+            hint = "the z component must be exactly 1 (a camera-frame ray of unit z-depth)"
+        else:
+            hint = "the direction is K^-1 [u + 0.5, v + 0.5, 1]^T: x = (u + 0.5 - cx) / fx, y = (v + 0.5 - cy) / fy"
+        raise AssertionError(f"pixel_to_ray is wrong {where}\nHint: {hint}")
+    print(f"check_pixel_to_ray: {n_trials} random pixels and cameras agree")
+    return True
+
+
+# --------------------------------------------------------------------------------------------------
+# Exercise 2: projecting world points into the image
+# --------------------------------------------------------------------------------------------------
+def _project_reference(points, pose, K):
+    R, t = pose[:3, :3], pose[:3, 3]
+    cam = (points - t) @ R  # R^T (p - t), row-wise
+    uv = np.stack([K[0, 0] * cam[:, 0] / cam[:, 2] + K[0, 2], K[1, 1] * cam[:, 1] / cam[:, 2] + K[1, 2]], axis=1)
+    return uv, cam[:, 2]
+
+
+def _project_hint(points, pose, K, uv, z) -> str:
+    want_uv, want_z = _project_reference(points, pose, K)
+    cam = (points - pose[:3, 3]) @ pose[:3, :3]
+    if _close(uv, want_uv) and _close(z, np.linalg.norm(cam, axis=1)):
+        return "the pixel coordinates are right but the depth is the range |p_cam|: return the z-depth p_cam[2]"
+    if _close(uv, want_uv[:, ::-1]):
+        return "u and v are swapped: u (column) comes from the camera x axis, v (row) from the camera y axis"
+    if _close(uv, want_uv - 0.5) or _close(uv, want_uv + 0.5):
+        return "off by half a pixel: the image coordinates are fx * x / z + cx with no extra 0.5 (pixel u spans [u, u + 1))"
+    wrong_cam = np.c_[points, np.ones(len(points))] @ pose.T
+    if _close(z, wrong_cam[:, 2]):
+        return "you applied the camera-to-world pose to world points: use its inverse, p_cam = R^T (p_world - t)"
+    if _close(uv, cam[:, :2] * np.diag(K)[:2] + K[:2, 2]):
+        return "you forgot the perspective division by the depth z"
+    return "world -> camera: p_cam = R^T (p_world - t); camera -> image: (fx x / z + cx, fy y / z + cy); depth = z"
+
+
+def check_project(project, n_trials: int = 10, seed: int = 0) -> bool:
+    """``project(points, pose, K)`` takes world points (N, 3), an OpenCV camera-to-world pose and K and
+    returns ``(uv, z)``: continuous image coordinates (N, 2) (pixel (u, v) spans [u, u+1) x [v, v+1),
+    its centre is (u + 0.5, v + 0.5)) and z-depths (N,).
+
+    Two tests: random world points against an independent projection, and a round trip with
+    ``stair_lite.measurement.back_project`` (every back-projected pixel must land on its own centre
+    at its own depth)."""
+    rng = np.random.default_rng(seed)
+    for trial in range(n_trials):
+        K, pose = _random_K(rng), _random_pose(rng)
+        n = 40
+        # points in front of the camera: random camera-frame points, taken to the world frame
+        cam = np.c_[rng.uniform(-1, 1, size=(n, 2)), rng.uniform(0.5, 4.0, size=n)]
+        points = cam @ pose[:3, :3].T + pose[:3, 3]
+        out = _call(project, points.copy(), pose.copy(), K.copy())
+        if out is None:
+            raise AssertionError("project(points, pose, K) returned None: fill in the function body (it still looks like the stub)")
+        if not isinstance(out, tuple) or len(out) != 2:
+            raise AssertionError("project(points, pose, K) must return a tuple (uv, z)")
+        uv = _as_array(out[0], (n, 2), "project(...)[0] (uv)")
+        z = _as_array(out[1], (n,), "project(...)[1] (z)")
+        want_uv, want_z = _project_reference(points, pose, K)
+        if not (_close(uv, want_uv, 1e-5) and _close(z, want_z)):
+            i = int(np.argmax(np.abs(uv - want_uv).sum(axis=1) + np.abs(z - want_z)))
+            raise AssertionError(
+                f"project is wrong: world point {np.round(points[i], 4)} gave uv={np.round(uv[i], 4)}, z={z[i]:.4f}; "
+                f"expected uv={np.round(want_uv[i], 4)}, z={want_z[i]:.4f}\nHint: {_project_hint(points, pose, K, uv, z)}"
+            )
+
+    # Round trip: a synthetic depth image back-projected by stair_lite must project onto its pixel centres.
+    h, w = 30, 40
+    intr = Intrinsics(w, h, fx=50.0, fy=45.0, cx=19.0, cy=16.5)
+    depth = rng.uniform(0.5, 3.0, size=(h, w)).astype(np.float32)
+    depth[rng.uniform(size=(h, w)) < 0.2] = 0.0  # some pixels hit nothing
+    pose = _random_pose(rng)
+    m = Measurement(np.ones((h, w, 3), np.float32), depth, np.zeros((h, w), np.int64), pose, intr)
+    points, _, _ = back_project(m)
+    uv, z = _call(project, points, pose, intr.K)
+    vv, uu = np.nonzero(depth > 0)
+    centres = np.stack([uu + 0.5, vv + 0.5], axis=1)
+    uv, z = np.asarray(uv, float), np.asarray(z, float)
+    if not _close(uv, centres, 1e-4):
+        raise AssertionError(
+            "round trip failed: back_project(pixel) followed by your project() does not land on the pixel centre "
+            f"(first pixel: expected {centres[0]}, got {np.round(uv[0], 4)})\nHint: {_project_hint(points, pose, intr.K, uv, z)}"
+        )
+    if not _close(z, depth[depth > 0], 1e-4):
+        raise AssertionError(
+            "round trip failed: the depth you return is not the depth-image value (z-depth)\n"
+            f"Hint: {_project_hint(points, pose, intr.K, uv, z)}"
+        )
+    print(f"check_project: {n_trials} x 40 random points agree, and the round trip through back_project is exact")
+    return True
+
+
+# --------------------------------------------------------------------------------------------------
+# Exercise 3: the angle between two views
+# --------------------------------------------------------------------------------------------------
+def _unit(view) -> np.ndarray:
+    el, az = view
+    return np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+
+
+def _angle_reference(a, b) -> float:
+    return float(np.arccos(np.clip(_unit(a) @ _unit(b), -1.0, 1.0)))
+
+
+def check_view_angle(view_angle, n_trials: int = 200, seed: int = 0) -> bool:
+    """``view_angle(view_a, view_b)`` takes two views (elevation, azimuth) in radians and returns the
+    great-circle angle in radians between the two camera directions (as seen from the origin)."""
+    rng = np.random.default_rng(seed)
+    pairs = [
+        ((np.pi / 2, 0.0), (np.pi / 2, 2.0)),  # the top view is one point whatever its azimuth
+        ((0.3, 0.05), (0.3, 2 * np.pi - 0.05)),  # across the azimuth seam
+        ((0.0, 0.0), (0.0, np.pi)),  # opposite on the horizon
+        ((1.2, 1.0), (1.2, 1.0)),  # the same view
+    ]
+    for _ in range(n_trials):
+        pairs.append(tuple((rng.uniform(0, np.pi / 2), rng.uniform(0, 2 * np.pi)) for _ in range(2)))
+    for a, b in pairs:
+        got = _call(view_angle, a, b)
+        if got is None:
+            raise AssertionError("view_angle(view_a, view_b) returned None: fill in the function body")
+        got = float(np.asarray(got).reshape(()))
+        want = _angle_reference(a, b)
+        if abs(got - want) <= 1e-6:
+            continue
+        if abs(got - 2 * np.sin(want / 2)) <= 1e-6 or abs(got - 4 * np.sin(want / 2)) <= 1e-6:
+            hint = "that is the straight-line (chord) distance: return the angle, arccos(d_a . d_b)"
+        elif abs(got - np.hypot(a[0] - b[0], a[1] - b[1])) <= 1e-6:
+            hint = "(elevation, azimuth) is not a flat plane: turn each view into a unit vector on the sphere first"
+        elif abs(got - np.degrees(want)) <= 1e-4:
+            hint = "return radians, not degrees"
+        else:
+            hint = "d = (cos el cos az, cos el sin az, sin el) for each view; the angle is arccos(clip(d_a . d_b, -1, 1))"
+        raise AssertionError(
+            f"view_angle is wrong for views {np.round(a, 4)} and {np.round(b, 4)}: got {got:.6f}, expected {want:.6f}\nHint: {hint}"
+        )
+    print(f"check_view_angle: {len(pairs)} view pairs agree (including the top view and the azimuth seam)")
+    return True

@@ -91,8 +91,8 @@ PAPER = Preset(name="paper")
 LITE = Preset(
     name="lite",
     field=FieldConfig(grid_resolution=64, rgb_hidden=(32, 32)),
-    render=RenderConfig(n_samples=64, n_surface_samples=16, chunk_rays=4096),
-    train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=100, lambda_depth=0.1),
+    render=RenderConfig(n_samples=48, n_surface_samples=16, chunk_rays=4096),
+    train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=80),
     eval=EvalConfig(n_test_views=20, image_scale=0.25, mesh_resolution=128, mesh_points=100_000),
     plan=PlanConfig(candidate_scale=0.1, candidate_samples=96),
 )

@@ -123,8 +123,8 @@ def render_rays(
     ``targets``: target-only rendering for evaluation: the occupancy of samples whose semantic
     argmax is not a target class is set to zero (paper Sec. IV-A). ``generator``/``depth`` switch on
     training-time jitter and depth-guided samples. ``skip`` leaves out samples in empty space.
-    Colour is evaluated only at samples whose weight exceeds ``colour_weight_threshold`` (the
-    others cannot change the pixel).
+    Colour and class probabilities are evaluated only at samples whose weight exceeds
+    ``colour_weight_threshold`` (the others cannot change the pixel).
     """
     t_near, t_far, hit = ray_box_intersection(origins, dirs, field.cfg.bound, cfg.near)
     t_far = torch.where(hit, t_far, t_near + 1e-3)
@@ -155,8 +155,12 @@ def render_rays(
         rgb = rgb.index_put((active.nonzero().squeeze(1),), field.colour_from(f_rgb[rows], pe[rows]))
     colour = (weights[..., None] * rgb.view(r, s, 3)).sum(dim=1) + (1.0 - acc)[:, None]
     depth_map = (weights * t).sum(dim=1)
-    # Semantic rendering uses detached weights, as the reference code does: semantics do not move geometry.
-    sem = (weights.detach()[..., None] * torch.softmax(sem_logits, dim=-1)).sum(dim=1)
+    # Semantic rendering (Eq. 4) uses detached weights, as the reference code does: semantics do not
+    # move geometry. Like colour, class probabilities are computed only where the weight matters.
+    probs = torch.zeros(r * s, NUM_CLASSES, device=t.device)
+    if active.any():
+        probs = probs.index_put((active.nonzero().squeeze(1),), torch.softmax(sem_logits.view(r * s, -1)[active], dim=-1))
+    sem = (weights.detach()[..., None] * probs.view(r, s, -1)).sum(dim=1)
     sem = sem + torch.nn.functional.one_hot(torch.tensor(BACKGROUND), NUM_CLASSES).to(sem) * (1.0 - acc.detach())[:, None]
     return {
         "rgb": colour,

@@ -1,0 +1,59 @@
+"""Benchmark of the semantic field (issue targets): per-view update time, evaluation time, peak memory.
+
+Run: .venv/bin/python benchmarks/bench_field.py [--preset lite] [--views 10] [--scene scene1]
+Measures, for the given preset, the incremental update after each new view (the preset's
+iterations per view) and one target-only evaluation (PSNR over the test views plus mesh F1); prints
+medians over the views and the process's peak resident memory.
+"""
+import argparse
+import resource
+import statistics
+import time
+
+import stair_lite  # noqa: F401
+from stair_lite.config import get_preset
+from stair_lite.evaluation import Evaluator
+from stair_lite.field import SemanticField
+from stair_lite.geometry import fibonacci_hemisphere, view_to_pose
+from stair_lite.scenes import load_scene
+from stair_lite.simulator import Simulator
+from stair_lite.training import Trainer
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--preset", default="lite")
+    parser.add_argument("--scene", default="scene1")
+    parser.add_argument("--views", type=int, default=10)
+    parser.add_argument("--evals", type=int, default=3, help="evaluate after this many of the last views")
+    args = parser.parse_args()
+    preset = get_preset(args.preset)
+    scene = load_scene(args.scene)
+    sim = Simulator(scene)
+    field = SemanticField(preset.field, seed=0)
+    trainer = Trainer(field, preset.train, preset.render, seed=0)
+    evaluator = Evaluator(sim, scene.targets, preset)
+    updates, evals = [], []
+    for i, (el, az) in enumerate(fibonacci_hemisphere(args.views, azimuth_offset=0.3)):
+        trainer.add_measurement(sim.render(view_to_pose(el, az)))
+        start = time.perf_counter()
+        trainer.update()
+        updates.append(time.perf_counter() - start)
+        line = f"view {i + 1:2d}: update {updates[-1]:.2f} s"
+        if i >= args.views - args.evals:
+            start = time.perf_counter()
+            result = evaluator.evaluate(field)
+            evals.append(time.perf_counter() - start)
+            line += f" | evaluation {evals[-1]:.2f} s: PSNR {result['psnr']:.2f} dB, F1 {result['f1']:.3f}"
+        print(line, flush=True)
+    peak_gb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+    print(f"preset {preset.name}: {preset.train.iterations_per_view} iterations/view, "
+          f"{preset.train.rays_new}+{preset.train.rays_replay} rays, grid {preset.field.grid_resolution}^3")
+    print(f"update after one new view: median {statistics.median(updates):.2f} s (views 2-{args.views}: "
+          f"median {statistics.median(updates[1:]):.2f} s, max {max(updates[1:]):.2f} s)")
+    print(f"one target-only evaluation ({preset.eval.n_test_views} test views + mesh F1): median {statistics.median(evals):.2f} s")
+    print(f"peak resident memory: {peak_gb:.2f} GB")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,85 @@
+import numpy as np
+import pytest
+import torch
+import trimesh
+
+import stair_lite  # noqa: F401
+from stair_lite.config import FieldConfig, get_preset
+from stair_lite.evaluation import Evaluator, extract_mesh, mesh_scores, psnr
+from stair_lite.scenes import load_scene
+from stair_lite.simulator import Simulator
+
+
+def test_psnr_closed_form():
+    a = np.zeros((4, 4, 3))
+    assert psnr(a, a + 0.1) == pytest.approx(20.0)
+    assert psnr(a, a) == float("inf")
+
+
+class SphereField:
+    """A stand-in field: occupancy 1 inside a sphere, class 1 (car) there, background elsewhere."""
+
+    cfg = FieldConfig(grid_resolution=8)
+    device = torch.device("cpu")
+
+    def __init__(self, centre, radius):
+        self.centre, self.radius = torch.tensor(centre), radius
+
+    def query(self, x):
+        inside = ((x - self.centre).norm(dim=1) < self.radius).float()
+        sem = torch.zeros(len(x), 7)
+        sem[:, 1], sem[:, 0] = inside, 1 - inside
+        return {"occ": inside, "sem": sem}
+
+
+def test_extracted_mesh_sits_on_the_occupied_boundary():
+    field = SphereField((0.2, -0.1, 0.6), 0.4)
+    mesh = extract_mesh(field, resolution=96, targets=(1,))
+    spacing = 3.0 / 95
+    r = np.linalg.norm(mesh.vertices - np.array([0.2, -0.1, 0.6]), axis=1)
+    assert np.all(np.abs(r - 0.4) < spacing)
+    assert extract_mesh(field, resolution=64, targets=(2,)) is None  # no chair anywhere
+
+
+def test_mesh_scores_of_identical_and_shifted_meshes():
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.3)
+    same = mesh_scores(sphere, sphere, 20000, 0.01)
+    assert same.precision > 0.99 and same.completeness > 0.99 and same.f1 > 0.99
+    shifted = sphere.copy()
+    shifted.apply_translation((0.05, 0, 0))
+    far = mesh_scores(shifted, sphere, 20000, 0.01)
+    assert far.f1 < 0.3 and far.chamfer > 0.01
+    empty = mesh_scores(None, sphere, 1000, 0.01)
+    assert (empty.precision, empty.completeness, empty.f1) == (0.0, 0.0, 0.0)
+
+
+def test_evaluator_rejects_targets_not_in_the_scene():
+    sim = Simulator(load_scene("scene1"))
+    with pytest.raises(ValueError, match="do not occur in scene"):
+        Evaluator(sim, ["airplane"], get_preset("lite"))
+
+
+def test_skipping_empty_space_matches_the_exact_render():
+    from stair_lite.field import SemanticField
+    from stair_lite.geometry import fibonacci_hemisphere, view_to_pose
+    from stair_lite.training import Trainer
+    from stair_lite.config import RenderConfig, TrainConfig, EvalConfig
+    from dataclasses import replace
+
+    preset = replace(get_preset("lite"), field=FieldConfig(grid_resolution=32, rgb_hidden=(32, 32)),
+                     train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=40),
+                     eval=EvalConfig(n_test_views=4, image_scale=0.2, mesh_resolution=64, mesh_points=20000))
+    scene = load_scene("scene1")
+    sim = Simulator(scene)
+    field = SemanticField(preset.field, seed=0)
+    trainer = Trainer(field, preset.train, preset.render, seed=0)
+    for el, az in fibonacci_hemisphere(3, azimuth_offset=0.3):
+        trainer.add_measurement(sim.render(view_to_pose(el, az)))
+        trainer.update()
+    evaluator = Evaluator(sim, scene.targets, preset)
+    fast, exact = evaluator.render_test_views(field, True), evaluator.render_test_views(field, False)
+    for f, e, gt in zip(fast, exact, evaluator.gt_images):
+        assert np.mean(np.abs(f - e).max(axis=-1) > 1e-3) < 2e-3
+        assert psnr(f, gt) == pytest.approx(psnr(e, gt), abs=0.05)
+    result = evaluator.evaluate(field)
+    assert result["psnr"] > 12 and 0 <= result["f1"] <= 1 and result["mesh"] is not None

@@ -1,0 +1,90 @@
+import numpy as np
+import pytest
+import torch
+import torch.nn.functional as F
+
+from stair_lite.config import FieldConfig, get_preset
+from stair_lite.field import SemanticField, positional_encoding, trilinear
+
+
+def test_trilinear_matches_grid_sample_values_and_gradients():
+    gen = torch.Generator().manual_seed(0)
+    r, c = 6, 5
+    table = torch.randn(r**3, c, generator=gen, dtype=torch.float64, requires_grad=True)
+    grid = table.detach().t().reshape(1, c, r, r, r).clone().requires_grad_(True)
+    x = torch.rand(500, 3, generator=gen, dtype=torch.float64) * 2 - 1
+    ours = trilinear(table, r, x)
+    ref = F.grid_sample(grid, x.view(1, 1, 1, -1, 3), align_corners=True).view(c, -1).t()
+    torch.testing.assert_close(ours, ref)
+    weights = torch.randn(500, c, generator=gen, dtype=torch.float64)
+    (ours * weights).sum().backward()
+    (ref * weights).sum().backward()
+    torch.testing.assert_close(table.grad, grid.grad.reshape(c, -1).t())
+
+
+def test_trilinear_is_exact_at_vertices_and_for_linear_fields():
+    r = 5
+    axis = torch.linspace(-1, 1, r, dtype=torch.float64)
+    z, y, x = torch.meshgrid(axis, axis, axis, indexing="ij")
+    linear = (0.3 * x - 2 * y + 0.5 * z + 1).reshape(-1, 1)
+    pts = torch.rand(200, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(1)) * 2 - 1
+    expected = 0.3 * pts[:, 0] - 2 * pts[:, 1] + 0.5 * pts[:, 2] + 1
+    torch.testing.assert_close(trilinear(linear, r, pts)[:, 0], expected)
+    vertex = torch.tensor([[axis[1], axis[3], axis[2]]])
+    torch.testing.assert_close(trilinear(linear, r, vertex)[0, 0], linear[(2 * r + 3) * r + 1, 0])
+
+
+def test_positional_encoding_maps_to_21_dimensions():
+    x = torch.tensor([[0.5, -0.25, 1.0]])
+    g = positional_encoding(x, 3)
+    assert g.shape == (1, 21)
+    torch.testing.assert_close(g[0, :3], x[0])
+    torch.testing.assert_close(g[0, 3:6], torch.sin(x[0]))  # k = 0
+    torch.testing.assert_close(g[0, 6:9], torch.sin(2 * x[0]))  # k = 1
+    torch.testing.assert_close(g[0, 12:15], torch.cos(x[0]))
+
+
+@pytest.mark.parametrize("preset", ["lite", "paper"])
+def test_field_outputs_have_the_paper_ranges(preset):
+    cfg = get_preset(preset).field
+    field = SemanticField(cfg, seed=0)
+    x = (torch.rand(1000, 3, generator=torch.Generator().manual_seed(2)) * 2 - 1) * cfg.bound
+    out = field(x)
+    assert out["occ"].shape == (1000,) and out["rgb"].shape == (1000, 3) and out["sem_logits"].shape == (1000, 7)
+    assert out["occ"].min() >= 0 and out["occ"].max() <= 1
+    assert out["occ"].max() < 0.01  # the map starts almost empty
+    assert out["rgb"].min() >= 0 and out["rgb"].max() <= 1
+    assert field.V_occ.shape == (cfg.occ_channels,) + (cfg.grid_resolution,) * 3
+    assert field.V_rgb.shape[0] == cfg.rgb_channels and field.V_sem.shape[0] == cfg.sem_channels
+    if preset == "paper":
+        assert cfg.grid_resolution == 128 and cfg.rgb_hidden == (128, 128) and cfg.occ_hidden == (32, 32)
+        assert (cfg.occ_channels, cfg.rgb_channels, cfg.sem_channels) == (3, 6, 7)
+
+
+def test_grid_views_name_the_right_channels():
+    field = SemanticField(FieldConfig(grid_resolution=4), seed=0)
+    with torch.no_grad():
+        field.grid[(1 * 4 + 2) * 4 + 3, 3] = 7.0  # vertex x=3, y=2, z=1, first rgb channel
+    assert field.V_rgb[0, 1, 2, 3] == 7.0
+    assert field.V_occ.abs().sum() == 0 and field.V_sem.abs().sum() == 0
+
+
+def test_field_initialisation_is_seeded():
+    a, b = SemanticField(FieldConfig(grid_resolution=8), seed=3), SemanticField(FieldConfig(grid_resolution=8), seed=3)
+    for pa, pb in zip(a.parameters(), b.parameters()):
+        torch.testing.assert_close(pa, pb)
+    c = SemanticField(FieldConfig(grid_resolution=8), seed=4)
+    assert not torch.equal(a.occ_mlp[0].weight, c.occ_mlp[0].weight)
+
+
+def test_saturated_occupancy_stays_finite():
+    field = SemanticField(FieldConfig(grid_resolution=8), seed=0)
+    with torch.no_grad():
+        field.occ_mlp[-1].bias.fill_(1e4)
+    occ = field(torch.zeros(10, 3))["occ"]
+    assert torch.all(occ == 1.0) and torch.all(torch.isfinite(occ))
+
+
+def test_unknown_preset_is_named():
+    with pytest.raises(ValueError, match="unknown preset 'huge'"):
+        get_preset("huge")

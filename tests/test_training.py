@@ -1,0 +1,130 @@
+import numpy as np
+import pytest
+import torch
+
+import stair_lite  # noqa: F401
+from stair_lite.config import FieldConfig, RenderConfig, TrainConfig, get_preset
+from stair_lite.evaluation import psnr
+from stair_lite.field import SemanticField
+from stair_lite.geometry import Intrinsics, view_to_pose
+from stair_lite.measurement import Measurement
+from stair_lite.rendering import render_image
+from stair_lite.scenes import load_scene
+from stair_lite.simulator import Simulator
+from stair_lite.training import RayBuffer, Trainer, loss_terms
+
+SMALL_FIELD = FieldConfig(grid_resolution=32, rgb_hidden=(32, 32))
+SMALL_RENDER = RenderConfig(n_samples=32, n_surface_samples=8)
+SMALL_TRAIN = TrainConfig(rays_new=256, rays_replay=256, iterations_per_view=40)
+K = Intrinsics.from_fov(64, 64)
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return Simulator(load_scene("scene1"), K)
+
+
+def measurement(sim, el, az):
+    return sim.render(view_to_pose(el, az))
+
+
+def test_training_lowers_the_loss_and_fits_the_view(sim):
+    field = SemanticField(SMALL_FIELD, seed=0)
+    trainer = Trainer(field, SMALL_TRAIN, SMALL_RENDER, seed=0)
+    m = measurement(sim, 1.0, 0.5)
+    before = render_image(field, K, m.pose, SMALL_RENDER)
+    trainer.add_measurement(m)
+    history = trainer.update(80)
+    first, last = np.mean([h.total for h in history[:10]]), np.mean([h.total for h in history[-10:]])
+    assert last < 0.5 * first
+    after = render_image(field, K, m.pose, SMALL_RENDER)
+    assert psnr(after["rgb"], m.rgb) > psnr(before["rgb"], m.rgb) + 5
+    hit = m.depth > 0
+    assert np.median(np.abs(after["depth"][hit] - m.depth[hit])) < 0.1
+
+
+def test_training_is_deterministic_given_a_seed(sim):
+    losses = []
+    for _ in range(2):
+        field = SemanticField(SMALL_FIELD, seed=1)
+        trainer = Trainer(field, SMALL_TRAIN, SMALL_RENDER, seed=1)
+        trainer.add_measurement(measurement(sim, 0.7, 1.0))
+        trainer.add_measurement(measurement(sim, 0.4, 3.0))
+        losses.append([h.total for h in trainer.update(5)])
+    assert losses[0] == losses[1]
+
+
+def test_replay_draws_distinct_old_rays_favouring_rarely_used_ones(sim):
+    buffer = RayBuffer()
+    buffer.add(measurement(sim, 1.0, 0.0))
+    buffer.add(measurement(sim, 0.5, 2.0))
+    n_old = K.width * K.height
+    buffer.use_counts[: n_old // 2] = 9  # half of the old rays were used often
+    draws = [buffer.replay_indices(500, np.random.default_rng(s)) for s in range(20)]
+    for d in draws:
+        assert len(np.unique(d)) == len(d) == 500
+        assert d.max() < n_old  # only earlier views are replayed
+    frequent = np.mean([np.mean(d < n_old // 2) for d in draws])
+    # P proportional to 1 / (1 + count): 1/10 against 1/1 -> about 1/11 of draws from the frequent half
+    assert frequent == pytest.approx(1 / 11, abs=0.02)
+
+
+def test_first_view_has_no_replay_and_later_batches_mix_half_and_half(sim):
+    field = SemanticField(SMALL_FIELD, seed=0)
+    trainer = Trainer(field, SMALL_TRAIN, SMALL_RENDER, seed=0)
+    trainer.add_measurement(measurement(sim, 1.0, 0.0))
+    trainer.update(3)
+    assert trainer.buffer.use_counts.sum() == 3 * 256
+    trainer.add_measurement(measurement(sim, 0.5, 2.0))
+    trainer.update(2)
+    new = trainer.buffer.view_index == 1
+    assert trainer.buffer.use_counts[new].sum() == 2 * 256
+    assert trainer.buffer.use_counts[~new].sum() == 3 * 256 + 2 * 256
+
+
+def test_empty_measurement_set_is_named():
+    trainer = Trainer(SemanticField(SMALL_FIELD), SMALL_TRAIN, SMALL_RENDER)
+    with pytest.raises(ValueError, match="measurement set is empty"):
+        trainer.update()
+
+
+def test_saturated_occupancy_gives_finite_loss_and_gradients(sim):
+    field = SemanticField(SMALL_FIELD, seed=0)
+    with torch.no_grad():
+        field.occ_mlp[-1].bias.fill_(50.0)  # o == 1 everywhere: log(0) and 0 * inf lurk
+        field.grid[:, -7:] = torch.tensor([-100.0, 100, -100, -100, -100, -100, -100])
+    trainer = Trainer(field, SMALL_TRAIN, SMALL_RENDER, seed=0)
+    trainer.add_measurement(measurement(sim, 0.8, 0.3))
+    history = trainer.update(3)
+    assert all(np.isfinite(h.total) for h in history)
+    assert all(torch.all(torch.isfinite(p)) for p in field.parameters())
+
+
+def test_loss_terms_follow_the_paper_weights():
+    out = {"rgb": torch.zeros(2, 3), "depth": torch.zeros(2), "sem": torch.tensor([[1.0, 0, 0, 0, 0, 0, 0]] * 2)}
+    batch = {"rgb": torch.ones(2, 3), "depth": torch.full((2,), 2.0), "labels": torch.tensor([0, 1])}
+    cfg = get_preset("paper").train
+    total, l_rgb, l_depth, l_sem = loss_terms(out, batch, cfg)
+    assert l_rgb.item() == pytest.approx(3.0) and l_depth.item() == pytest.approx(2.0)
+    assert l_sem.item() == pytest.approx(-np.log(1e-6) / 2)  # clamped log(0) on the second ray
+    assert total.item() == pytest.approx(1.0 * 3.0 + 0.1 * 2.0 + 1.0 * l_sem.item())
+
+
+def test_paper_preset_trains_on_cpu(sim):
+    """The paper's field (128^3 grids, 2x128 / 2x32 MLPs, 200 samples) runs; rays are cut for CPU speed."""
+    preset = get_preset("paper")
+    field = SemanticField(preset.field, seed=0)
+    trainer = Trainer(field, TrainConfig(rays_new=64, rays_replay=64), preset.render, seed=0)
+    trainer.add_measurement(measurement(sim, 1.2, 0.0))
+    history = trainer.update(2)
+    assert all(np.isfinite(h.total) for h in history)
+
+
+def test_bad_measurements_are_rejected_before_training(sim):
+    m = measurement(sim, 1.0, 0.0)
+    with pytest.raises(ValueError, match="depth contains"):
+        Measurement(m.rgb, np.where(m.depth > 0, np.nan, 0).astype(np.float32), m.labels, m.pose, m.intrinsics)
+    with pytest.raises(ValueError, match=r"rgb has shape \(10, 64, 3\)"):
+        Measurement(m.rgb[:10], m.depth, m.labels, m.pose, m.intrinsics)
+    with pytest.raises(ValueError, match="class range"):
+        Measurement(m.rgb, m.depth, m.labels + 7, m.pose, m.intrinsics)

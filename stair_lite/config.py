@@ -94,7 +94,7 @@ LITE = Preset(
     render=RenderConfig(n_samples=48, n_surface_samples=16, chunk_rays=4096),
     train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=80),
     eval=EvalConfig(n_test_views=20, image_scale=0.25, mesh_resolution=128, mesh_points=100_000),
-    plan=PlanConfig(candidate_scale=0.1, candidate_samples=96),
+    plan=PlanConfig(candidate_scale=0.1, candidate_samples=64),
 )
 
 PRESETS = {"paper": PAPER, "lite": LITE}

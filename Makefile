@@ -7,6 +7,7 @@ SCENE ?= scene1
 PLANNER ?= stair
 SEED ?= 0
 OUT ?= runs/demo
+RUN_FLAGS ?= --overwrite
 
 .PHONY: setup demo test unit notebooks lab bench
 
@@ -14,7 +15,7 @@ setup:
 	@bash scripts/setup.sh
 
 demo: setup
-	$(PY) -m stair_lite demo --scene $(SCENE) --out $(OUT)
+	$(PY) -m stair_lite run --scene $(SCENE) --planner $(PLANNER) --seed $(SEED) --out $(OUT) $(RUN_FLAGS)
 
 test: setup
 	$(PY) -m pytest tests notebooks --nbval-lax --nbval-current-env --nbval-cell-timeout=600 --durations=15 -ra

@@ -3,6 +3,7 @@
   scenes   list the shipped scenes
   render   render a scene from a few views into a figure (the simulated world)
   fit      fit a field to fixed views of a scene and report target-only PSNR and mesh F1
+  run      one active reconstruction mission (planner, scene, seed) with per-step metrics
 """
 from __future__ import annotations
 
@@ -12,6 +13,8 @@ import time
 from pathlib import Path
 
 import stair_lite  # noqa: F401  (sets the offscreen platform before pyrender loads)
+
+from .classes import CLASS_NAMES
 
 
 def _cmd_scenes(args):
@@ -96,6 +99,64 @@ def _cmd_fit(args):
             print(f"wrote {out / 'target_mesh.ply'}")
 
 
+def _cmd_run(args):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from tqdm import tqdm
+
+    from .mission import Mission, MissionConfig
+    from .plotting import plot_camera_path, plot_mission_metrics
+
+    config = MissionConfig(scene=args.scene, planner=args.planner, seed=args.seed, preset=args.preset,
+                           targets=tuple(args.targets.split(",")) if args.targets else None,
+                           budget=args.budget, epsilon=args.epsilon)
+    mission = Mission(config, out=args.out, resume=args.resume, overwrite=args.overwrite)
+    out = Path(args.out)
+    done = len(mission.records)
+    print(f"mission: scene {config.scene}, targets {', '.join(CLASS_NAMES[t] for t in mission.targets)}, planner "
+          f"{config.planner}, seed {config.seed}, preset {config.preset}, budget {config.budget}"
+          + (f" (resuming after step {done})" if done else ""))
+    header = f"{'step':>4} {'elev':>6} {'azim':>6} {'utility':>9} {'loss':>7} {'PSNR':>6} {'prec':>5} {'compl':>5} {'F1':>5} {'plan s':>6} {'train s':>7} {'eval s':>6}"
+    bar = tqdm(total=config.budget, initial=done, desc="steps", unit="step", leave=False, disable=args.quiet)
+    tqdm.write(header)
+
+    def row(r):
+        u = f"{r['utility']:9.1f}" if r["utility"] is not None else f"{'-':>9}"
+        t = r["time_s"]
+        tqdm.write(f"{r['step']:4d} {r['view_deg'][0]:6.1f} {r['view_deg'][1]:6.1f} {u} {r['loss']:7.4f} {r['psnr']:6.2f} "
+                   f"{r['precision']:5.3f} {r['completeness']:5.3f} {r['f1']:5.3f} {t['plan']:6.2f} {t['train']:7.2f} {t['evaluate']:6.2f}")
+        bar.update(1)
+
+    for r in mission.records:
+        row(r)
+    bar.reset(total=config.budget)
+    bar.update(done)
+    start = time.perf_counter()
+    try:
+        records = mission.run(on_step=row)
+    except KeyboardInterrupt:
+        bar.close()
+        print(f"\ninterrupted: {len(mission.records)} steps are saved in {out / 'metrics.json'}; "
+              "run again with --resume to continue", file=sys.stderr)
+        return 130
+    bar.close()
+    axes = plot_mission_metrics(records, label=config.planner)
+    axes[0].figure.suptitle(f"{config.scene}, {config.planner}, seed {config.seed}")
+    axes[0].figure.tight_layout()
+    axes[0].figure.savefig(out / "metrics.png", dpi=90)
+    ax = plot_camera_path(mission.scene, records, title=f"{config.planner}: camera path")
+    ax.figure.savefig(out / "camera_path.png", dpi=90)
+    plt.close("all")
+    mesh = getattr(mission, "last_mesh", None)
+    if mesh is not None:
+        mesh.export(out / "target_mesh.ply")
+    print(f"done in {time.perf_counter() - start:.1f} s: final PSNR {records[-1]['psnr']:.2f} dB, F1 {records[-1]['f1']:.3f}; "
+          f"wrote {out}/metrics.json, metrics.png, camera_path.png" + (", target_mesh.ply" if mesh is not None else ""))
+    return 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m stair_lite", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -115,13 +176,25 @@ def main(argv=None):
     p.add_argument("--rays", type=int, default=None, help="override new and replay rays per iteration")
     p.add_argument("--out", default=None, help="folder for the target mesh (PLY)")
     p.set_defaults(func=_cmd_fit)
+    p = sub.add_parser("run", help="run one active reconstruction mission")
+    p.add_argument("--scene", default="scene1")
+    p.add_argument("--planner", default="stair", help="stair, exploration, fixed, max_distance or uniform")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--preset", default="lite", choices=["lite", "paper"])
+    p.add_argument("--targets", default=None, help="comma-separated class names (default: the scene's)")
+    p.add_argument("--budget", type=int, default=10, help="number of measurements, the top view included")
+    p.add_argument("--epsilon", type=float, default=0.2, help="exploration weight of the STAIR utility")
+    p.add_argument("--out", default="runs/demo")
+    p.add_argument("--resume", action="store_true", help="continue a mission found in --out")
+    p.add_argument("--overwrite", action="store_true", help="replace the results found in --out")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_run)
     args = parser.parse_args(argv)
     try:
-        args.func(args)
+        return args.func(args) or 0
     except (ValueError, FileNotFoundError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    return 0
 
 
 if __name__ == "__main__":

@@ -92,7 +92,10 @@ class Mission:
                 stored = json.loads(metrics.read_text())
             except json.JSONDecodeError as err:
                 raise ResultsFolderError(f"{metrics} is unreadable ({err}); use --overwrite to start again") from None
-            if {k: stored.get(k) for k in ("config", "preset")} != json.loads(json.dumps(self._header())):
+            mine = json.loads(json.dumps(self._header()))
+            if resume:  # a mission may be resumed with a larger budget
+                mine["config"]["budget"] = stored.get("config", {}).get("budget")
+            if {k: stored.get(k) for k in ("config", "preset")} != mine:
                 raise ResultsFolderError(
                     f"{self.out} holds results of a different mission ({stored.get('config')}); "
                     "choose another folder or pass --overwrite")
@@ -100,7 +103,10 @@ class Mission:
                 raise ResultsFolderError(
                     f"{self.out} already holds {len(stored.get('steps', []))} steps of this mission; "
                     "pass --resume to continue it or --overwrite to start again")
-            self.records = stored.get("steps", [])
+            self.records = stored.get("steps", [])[: self.config.budget]
+            if len(self.records) < len(stored.get("steps", [])):
+                raise ResultsFolderError(f"{self.out} holds {len(stored['steps'])} steps, more than the budget "
+                                         f"{self.config.budget}; pass a budget of at least that")
         elif overwrite:
             for name in (METRICS_FILE, CHECKPOINT_FILE):
                 (self.out / name).unlink(missing_ok=True)
@@ -122,21 +128,22 @@ class Mission:
         torch.save(state, tmp)
         os.replace(tmp, self.out / CHECKPOINT_FILE)
         write_json_atomically(self.out / METRICS_FILE, {**self._header(), "steps": self.records})
+        # (the budget in the header is the current one: a resumed mission may have raised it)
 
     def _restore(self, trainer: Trainer, planner, sim: Simulator) -> list:
         state = torch.load(self.out / CHECKPOINT_FILE, weights_only=False)
         if state["steps"] != len(self.records):
             raise ResultsFolderError(f"checkpoint in {self.out} is for step {state['steps']}, metrics for step "
                                      f"{len(self.records)}; pass --overwrite to start again")
-        for record in self.records:  # the simulator is deterministic: measure the same poses again
-            trainer.add_measurement(sim.render(np.array(record["pose"])))
+        for record in self.records:  # the simulator is deterministic: measure the same views again
+            trainer.add_measurement(sim.render(view_to_pose(*record["view_rad"])))
         trainer.field.load_state_dict(state["field"])
         trainer.optimizer.load_state_dict(state["optimizer"])
         trainer.rng.bit_generator.state = state["trainer_rng"]
         trainer.generator.set_state(state["trainer_generator"])
         trainer.buffer.use_counts = state["use_counts"]
         planner.rng.bit_generator.state = state["planner_rng"]
-        return [np.radians(r["view_deg"]) for r in self.records]
+        return [np.array(r["view_rad"]) for r in self.records]
 
     # ----------------------------------------------------------------- the loop
     def run(self, on_step=None) -> list[dict]:
@@ -169,8 +176,9 @@ class Mission:
             visited.append(np.asarray(view, dtype=float))
             record = {
                 "step": step,
-                "view_deg": np.degrees(view).round(6).tolist(),
-                "pose": pose.round(9).tolist(),
+                "view_deg": np.degrees(view).tolist(),
+                "view_rad": np.asarray(view, dtype=float).tolist(),
+                "pose": pose.tolist(),
                 "utility": None, "exploitation": None, "exploration": None,
                 "loss": history[-1].total,
                 "loss_mean_last10": float(np.mean([h.total for h in history[-10:]])),

@@ -130,7 +130,7 @@ class MaxViewDistancePlanner(Planner):
         c = view_to_position(candidates[:, 0], candidates[:, 1])
         v = view_to_position(visited[:, 0], visited[:, 1])
         distance = ((c[:, None, :] - v[None, :, :]) ** 2).sum(-1).mean(axis=1)
-        best = int(np.argmax(distance))
+        best = int(np.argmax(np.where(far_enough(candidates, visited), distance, -np.inf)))
         return Decision(view=candidates[best], candidates=candidates, chosen_index=best, info={"mean_sq_distance": float(distance[best])})
 
 

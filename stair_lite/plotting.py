@@ -93,3 +93,30 @@ def hemisphere_scatter(ax, views, values=None, cmap="magma", s=18, **kw):
     ax.set_xlabel("x / r (top-down)")
     ax.set_ylabel("y / r")
     return sc
+
+
+def plot_mission_metrics(records, axes=None, label: str | None = None, colour=None):
+    """Target-only PSNR and mesh F1 against the number of measurements, from a mission's step records."""
+    if axes is None:
+        _, axes = plt.subplots(1, 2, figsize=(10, 3.5))
+    steps = [r["step"] for r in records]
+    axes[0].plot(steps, [r["psnr"] for r in records], marker="o", label=label, color=colour)
+    axes[1].plot(steps, [r["f1"] for r in records], marker="o", label=label, color=colour)
+    axes[0].set_ylabel("target-only PSNR [dB]")
+    axes[1].set_ylabel("target mesh F1 (1 cm)")
+    for ax in axes:
+        ax.set_xlabel("measurements")
+        ax.grid(alpha=0.3)
+    return axes
+
+
+def plot_camera_path(scene, records, ax=None, title: str = ""):
+    """The scene with the mission's camera path on the hemisphere, views numbered in order."""
+    if ax is None:
+        ax = plt.figure(figsize=(6, 6)).add_subplot(projection="3d")
+    draw_scene(ax, scene)
+    draw_hemisphere(ax)
+    draw_cameras(ax, np.array([r["pose"] for r in records]), path=True, labels=True)
+    set_equal_3d(ax, 2.1, z_range=(0.0, 2.1))
+    ax.set_title(title)
+    return ax

@@ -24,13 +24,11 @@ from .classes import BACKGROUND, NUM_CLASSES
 from .geometry import Intrinsics, pixel_rays, view_to_pose
 from .rendering import compositing_weights, ray_box_intersection, sample_along_rays
 
-PROB_CLAMP = 1e-7  # o is clamped to [eps, 1 - eps] inside the logarithms
-
-
 def point_entropy(occ: torch.Tensor) -> torch.Tensor:
-    """Eq. 10: Bernoulli entropy of the occupancy, in nats; finite at o = 0 and o = 1 (where it is 0)."""
-    o = occ.clamp(PROB_CLAMP, 1.0 - PROB_CLAMP)
-    return -(o * torch.log(o) + (1.0 - o) * torch.log1p(-o))
+    """Eq. 10: Bernoulli entropy of the occupancy, in nats. ``xlogy`` makes 0 ln 0 = 0, so it is exactly
+    0 at o = 0 and o = 1 and never NaN."""
+    o = occ.clamp(0.0, 1.0)
+    return -(torch.special.xlogy(o, o) + torch.special.xlogy(1.0 - o, 1.0 - o))
 
 
 @dataclass(frozen=True)

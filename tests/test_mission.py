@@ -1,0 +1,85 @@
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import stair_lite  # noqa: F401
+from stair_lite.config import EvalConfig, FieldConfig, PlanConfig, RenderConfig, TrainConfig, get_preset
+from stair_lite.mission import Mission, MissionConfig, ResultsFolderError
+
+TINY = replace(
+    get_preset("lite"),
+    name="tiny",
+    field=FieldConfig(grid_resolution=24, rgb_hidden=(16,)),
+    render=RenderConfig(n_samples=24, n_surface_samples=8),
+    train=TrainConfig(rays_new=128, rays_replay=128, iterations_per_view=5),
+    eval=EvalConfig(n_test_views=3, image_scale=0.1, mesh_resolution=32, mesh_points=2000),
+    plan=PlanConfig(n_uniform=12, top_k=2, n_resample=2, candidate_scale=0.03, candidate_samples=24),
+)
+
+
+def run(tmp_path, name="m", budget=3, planner="stair", on_step=None, **kw):
+    mission = Mission(MissionConfig(planner=planner, budget=budget), out=tmp_path / name, preset=TINY, **kw)
+    return mission.run(on_step=on_step)
+
+
+def strip_times(records):
+    return [{k: v for k, v in r.items() if k != "time_s"} for r in records]
+
+
+def test_same_seed_same_mission(tmp_path):
+    a, b = run(tmp_path, "a"), run(tmp_path, "b")
+    assert strip_times(a) == strip_times(b)
+    assert a[0]["view_deg"] == [90.0, 0.0]  # every mission starts at the top view
+    assert a[0]["utility"] is None and a[1]["utility"] is not None
+    for r in a:
+        assert set(r["time_s"]) == {"plan", "measure", "train", "evaluate"}
+        assert 0 <= r["f1"] <= 1 and np.isfinite(r["psnr"])
+    stored = json.loads((tmp_path / "a" / "metrics.json").read_text())
+    assert stored["config"]["planner"] == "stair" and len(stored["steps"]) == 3
+
+
+def test_interrupted_mission_keeps_its_steps_and_resumes_exactly(tmp_path):
+    full = run(tmp_path, "full", budget=3)
+
+    def stop_after_two(record):
+        if record["step"] == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run(tmp_path, "cut", budget=3, on_step=stop_after_two)
+    saved = json.loads((tmp_path / "cut" / "metrics.json").read_text())
+    assert [r["step"] for r in saved["steps"]] == [1, 2]
+    resumed = run(tmp_path, "cut", budget=3, resume=True)
+    assert strip_times(resumed) == strip_times(full)
+
+
+def test_results_folder_is_protected(tmp_path):
+    run(tmp_path, "x", budget=1)
+    with pytest.raises(ResultsFolderError, match="--resume"):
+        run(tmp_path, "x", budget=1)
+    with pytest.raises(ResultsFolderError, match="different mission"):
+        run(tmp_path, "x", budget=1, planner="uniform")
+    assert len(run(tmp_path, "x", budget=1, planner="uniform", overwrite=True)) == 1
+    (tmp_path / "x" / "metrics.json").write_text("{ broken")
+    with pytest.raises(ResultsFolderError, match="unreadable"):
+        run(tmp_path, "x", budget=1, planner="uniform", resume=True)
+
+
+@pytest.mark.parametrize("kw,match", [({"budget": 0}, "budget must be at least 1"), ({"epsilon": -0.5}, "epsilon must be >= 0"),
+                                       ({"planner": "random"}, "unknown planner"), ({"targets": ("boat",)}, "unknown class name")])
+def test_bad_mission_settings_are_named(kw, match):
+    with pytest.raises(ValueError, match=match):
+        Mission(MissionConfig(**kw), preset=TINY)
+
+
+def test_targets_must_be_in_the_scene():
+    with pytest.raises(ValueError, match="do not occur in scene"):
+        Mission(MissionConfig(scene="scene2", targets=("car",)), preset=TINY)
+
+
+@pytest.mark.parametrize("planner", ["exploration", "fixed", "max_distance", "uniform"])
+def test_every_planner_completes_a_mission(tmp_path, planner):
+    records = run(tmp_path, planner, budget=2, planner=planner)
+    assert len(records) == 2 and records[1]["view_deg"] != records[0]["view_deg"]

@@ -1,0 +1,72 @@
+import numpy as np
+import pytest
+import torch
+
+import stair_lite  # noqa: F401
+from stair_lite.explicit import ExplicitConfig, ExplicitMap, logit
+from stair_lite.geometry import Intrinsics, view_to_pose
+from stair_lite.measurement import Measurement, back_project
+from stair_lite.scenes import load_scene
+from stair_lite.simulator import Simulator
+
+K = Intrinsics.from_fov(40, 40)
+
+
+def flat_measurement(depth_value=1.5, label=2):
+    """Top view of a horizontal wall of class ``label`` at z = 2 - depth (every pixel hits it)."""
+    pose = view_to_pose(np.pi / 2, 0.0)
+    depth = np.full((40, 40), depth_value, np.float32)
+    return Measurement(np.full((40, 40, 3), 0.25, np.float32), depth, np.full((40, 40), label), pose, K)
+
+
+def test_endpoints_become_occupied_and_labelled_and_rays_free():
+    emap = ExplicitMap(ExplicitConfig(resolution=32, pixel_stride=1))
+    m = flat_measurement()
+    emap.integrate(m)
+    points, _, _ = back_project(m)
+    index, inside = emap.voxel_index(torch.as_tensor(points, dtype=torch.float32))
+    assert inside.all()
+    p = emap.probability
+    assert torch.allclose(p[index], torch.tensor(0.7))  # one hit: prob_hit
+    assert torch.all(emap.labels[index] == 2)
+    assert torch.allclose(emap.colours[index], torch.tensor(0.25))
+    camera = m.pose[:3, 3]
+    on_ray = camera + (points - camera) * (1.2 / 1.5)  # 30 cm in front of the wall, along each ray
+    above, _ = emap.voxel_index(torch.as_tensor(on_ray, dtype=torch.float32))
+    assert torch.allclose(p[above], torch.tensor(0.4))  # crossed once: prob_miss
+    below, _ = emap.voxel_index(torch.as_tensor(points - np.array([0, 0, 0.3]), dtype=torch.float32))
+    assert torch.all(~emap.observed[below]) and torch.allclose(p[below], torch.tensor(0.5))  # unknown behind
+
+
+def test_log_odds_are_clamped_as_octomap_does():
+    emap = ExplicitMap(ExplicitConfig(resolution=16, pixel_stride=1))
+    m = flat_measurement()
+    for _ in range(20):
+        emap.integrate(m)
+    assert emap.log_odds.max().item() == pytest.approx(logit(0.97))
+    assert emap.log_odds.min().item() == pytest.approx(logit(0.12))
+
+
+def test_background_rays_carve_free_space_only_when_asked():
+    m = flat_measurement(depth_value=0.0, label=0)
+    m = Measurement(m.rgb * 0 + 1, m.depth, m.labels, m.pose, m.intrinsics)
+    carve, keep = ExplicitMap(ExplicitConfig(resolution=16)), ExplicitMap(ExplicitConfig(resolution=16, carve_background=False))
+    carve.integrate(m)
+    keep.integrate(m)
+    assert carve.observed.sum() > 0 and keep.observed.sum() == 0
+
+
+def test_scene_map_meshes_renders_and_scores_views():
+    scene = load_scene("scene1")
+    sim = Simulator(scene)
+    emap = ExplicitMap(ExplicitConfig(resolution=64))
+    for el, az in [(np.pi / 2, 0.0), (0.5, 0.8), (0.4, 3.0)]:
+        emap.integrate(sim.render(view_to_pose(el, az)))
+    mesh = emap.extract_target_mesh(scene.targets)
+    assert mesh is not None and len(mesh.faces) > 100
+    assert mesh.bounds[0][2] > -0.1  # cars stand on the ground
+    image = emap.render_target_only(Intrinsics.from_fov(50, 50), view_to_pose(0.5, 0.8), scene.targets)
+    assert image.shape == (50, 50, 3) and (image < 1).any() and (image == 1).all(axis=-1).any()
+    views = np.array([[0.5, 0.8], [0.3, 4.0], [1.2, 2.0]])
+    scores = emap.roi_scores(views, scene.targets)
+    assert scores.shape == (3,) and np.all(scores >= 0)

@@ -111,7 +111,7 @@ def _cmd_run(args):
 
     config = MissionConfig(scene=args.scene, planner=args.planner, seed=args.seed, preset=args.preset,
                            targets=tuple(args.targets.split(",")) if args.targets else None,
-                           budget=args.budget, epsilon=args.epsilon)
+                           budget=args.budget, epsilon=args.epsilon, mapper=args.mapper, replay=args.replay)
     mission = Mission(config, out=args.out, resume=args.resume, overwrite=args.overwrite)
     out = Path(args.out)
     done = len(mission.records)
@@ -124,8 +124,9 @@ def _cmd_run(args):
 
     def row(r):
         u = f"{r['utility']:9.1f}" if r["utility"] is not None else f"{'-':>9}"
+        loss = f"{r['loss']:7.4f}" if r["loss"] is not None else f"{'-':>7}"
         t = r["time_s"]
-        tqdm.write(f"{r['step']:4d} {r['view_deg'][0]:6.1f} {r['view_deg'][1]:6.1f} {u} {r['loss']:7.4f} {r['psnr']:6.2f} "
+        tqdm.write(f"{r['step']:4d} {r['view_deg'][0]:6.1f} {r['view_deg'][1]:6.1f} {u} {loss} {r['psnr']:6.2f} "
                    f"{r['precision']:5.3f} {r['completeness']:5.3f} {r['f1']:5.3f} {t['plan']:6.2f} {t['train']:7.2f} {t['evaluate']:6.2f}")
         bar.update(1)
 
@@ -178,12 +179,14 @@ def main(argv=None):
     p.set_defaults(func=_cmd_fit)
     p = sub.add_parser("run", help="run one active reconstruction mission")
     p.add_argument("--scene", default="scene1")
-    p.add_argument("--planner", default="stair", help="stair, exploration, fixed, max_distance or uniform")
+    p.add_argument("--planner", default="stair", help="stair, exploration, fixed, max_distance, uniform, ste or replay")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--preset", default="lite", choices=["lite", "paper"])
     p.add_argument("--targets", default=None, help="comma-separated class names (default: the scene's)")
     p.add_argument("--budget", type=int, default=10, help="number of measurements, the top view included")
     p.add_argument("--epsilon", type=float, default=0.2, help="exploration weight of the STAIR utility")
+    p.add_argument("--mapper", default="implicit", choices=["implicit", "explicit"], help="the map that is evaluated")
+    p.add_argument("--replay", default=None, help="with --planner replay: a metrics.json whose views are followed")
     p.add_argument("--out", default="runs/demo")
     p.add_argument("--resume", action="store_true", help="continue a mission found in --out")
     p.add_argument("--overwrite", action="store_true", help="replace the results found in --out")

@@ -74,6 +74,23 @@ class PlanConfig:
 
 
 @dataclass(frozen=True)
+class ExplicitConfig:
+    """The explicit STE baseline's map (OctoMap's sensor model and clamping) and ROI planner."""
+
+    resolution: int = 128  # the same grid size as the field (paper Sec. IV-C)
+    bound: float = 1.5
+    prob_hit: float = 0.7
+    prob_miss: float = 0.4
+    clamp_min: float = 0.12
+    clamp_max: float = 0.97
+    carve_background: bool = True  # rays that hit nothing inside the cube mark their whole path free
+    pixel_stride: int = 2  # integrate every n-th pixel in each direction
+    n_candidates: int = 100
+    candidate_scale: float = 0.1  # 400x400 -> 40x40 rays per candidate, as the reference code
+    roi_max_distance: int = 10  # voxels: unknown voxels closer than this to a target voxel score higher
+
+
+@dataclass(frozen=True)
 class Preset:
     """Everything a mission needs, under one name."""
 
@@ -83,6 +100,7 @@ class Preset:
     train: TrainConfig = dataclass_field(default_factory=TrainConfig)
     eval: EvalConfig = dataclass_field(default_factory=EvalConfig)
     plan: PlanConfig = dataclass_field(default_factory=PlanConfig)
+    explicit: ExplicitConfig = dataclass_field(default_factory=ExplicitConfig)
     budget: int = 10  # measurements per mission, the top view included
 
 
@@ -95,6 +113,7 @@ LITE = Preset(
     train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=80),
     eval=EvalConfig(n_test_views=20, image_scale=0.25, mesh_resolution=128, mesh_points=100_000),
     plan=PlanConfig(candidate_scale=0.1, candidate_samples=64),
+    explicit=ExplicitConfig(resolution=64),
 )
 
 PRESETS = {"paper": PAPER, "lite": LITE}

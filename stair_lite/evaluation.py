@@ -92,9 +92,9 @@ def mesh_scores(pred: trimesh.Trimesh | None, gt: trimesh.Trimesh, n_points: int
 
 
 class Evaluator:
-    """Target-only evaluation of a field against one scene: ground truth is rendered and sampled once.
+    """Target-only evaluation of a map against one scene: ground truth is rendered and sampled once.
 
-    ``evaluate(field)`` returns the mean target-only PSNR over the test views and the target-mesh
+    ``evaluate(model)`` takes a SemanticField or an ExplicitMap and returns the mean target-only PSNR over the test views and the target-mesh
     precision / completeness / F1 / chamfer, plus the predicted mesh.
     """
 
@@ -113,7 +113,9 @@ class Evaluator:
         self.gt_tree = cKDTree(self.gt_points)
 
     def render_test_views(self, field, skip_empty_space: bool = True) -> list[np.ndarray]:
-        """Target-only renders of the field at every test view (skipping space that holds no target)."""
+        """Target-only renders of the map at every test view (for a field, skipping space that holds no target)."""
+        if hasattr(field, "render_target_only"):  # the explicit map renders itself
+            return [field.render_target_only(self.intrinsics, p, self.targets) for p in self.poses]
         skip = build_skip_grid(field, self.targets) if skip_empty_space else None
         return [
             render_image(field, self.intrinsics, p, self.preset.render, targets=self.targets, skip=skip)["rgb"]
@@ -126,7 +128,10 @@ class Evaluator:
         renders = self.render_test_views(field)
         psnrs = [psnr(r, g) for r, g in zip(renders, self.gt_images)]
         t_render = time.perf_counter() - start
-        mesh = extract_mesh(field, cfg.mesh_resolution, targets=self.targets)
+        if hasattr(field, "extract_target_mesh"):
+            mesh = field.extract_target_mesh(self.targets)
+        else:
+            mesh = extract_mesh(field, cfg.mesh_resolution, targets=self.targets)
         scores = mesh_scores_from_points(sample_surface(mesh, cfg.mesh_points, self.seed + 1), self.gt_tree, self.gt_points, cfg.f1_threshold)
         return {
             "psnr": float(np.mean(psnrs)),

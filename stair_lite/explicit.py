@@ -8,37 +8,19 @@ target-only colour renders come from the map, so STE is scored with the same met
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import torch
 from scipy.ndimage import distance_transform_edt
 
 from .classes import NUM_CLASSES
-from .geometry import Intrinsics, pixel_rays, random_hemisphere, view_to_pose
+from .config import ExplicitConfig
+from .geometry import Intrinsics, pixel_rays, view_to_pose
 from .measurement import Measurement
 from .rendering import ray_box_intersection
 
 
 def logit(p: float) -> float:
     return float(np.log(p / (1.0 - p)))
-
-
-@dataclass(frozen=True)
-class ExplicitConfig:
-    """OctoMap's default sensor model and clamping, a grid like the field's, ROI planner settings."""
-
-    resolution: int = 128
-    bound: float = 1.5
-    prob_hit: float = 0.7
-    prob_miss: float = 0.4
-    clamp_min: float = 0.12
-    clamp_max: float = 0.97
-    carve_background: bool = True  # rays that hit nothing inside the cube mark their whole path free
-    pixel_stride: int = 2  # integrate every n-th pixel in each direction
-    n_candidates: int = 100
-    candidate_scale: float = 0.1  # 400x400 -> 40x40 rays per candidate, as the reference code
-    roi_max_distance: int = 10  # voxels: unknown voxels closer than this to a target voxel score higher
 
 
 class ExplicitMap:

@@ -22,7 +22,8 @@ from .config import Preset, get_preset
 from .evaluation import Evaluator
 from .field import SemanticField
 from .geometry import TOP_VIEW, view_to_pose
-from .planners import PLANNERS, make_planner
+from .explicit import ExplicitMap
+from .planners import PLANNERS, ReplayPlanner, make_planner
 from .scenes import load_scene
 from .simulator import Simulator
 from .training import Trainer
@@ -41,10 +42,16 @@ class MissionConfig:
     targets: tuple[str, ...] | None = None  # None: the scene's own targets
     budget: int = 10
     epsilon: float = 0.2
+    mapper: str = "implicit"  # the map that is evaluated: "implicit" (the field) or "explicit" (STE's voxel map)
+    replay: str | None = None  # with planner "replay": a metrics.json whose views are followed
 
     def __post_init__(self):
-        if self.planner not in PLANNERS:
-            raise ValueError(f"unknown planner {self.planner!r}; choose one of {', '.join(PLANNERS)}")
+        if self.planner not in PLANNERS + ("replay",):
+            raise ValueError(f"unknown planner {self.planner!r}; choose one of {', '.join(PLANNERS + ('replay',))}")
+        if (self.planner == "replay") != (self.replay is not None):
+            raise ValueError("planner 'replay' needs a replay file, and a replay file needs planner 'replay'")
+        if self.mapper not in ("implicit", "explicit"):
+            raise ValueError(f"unknown mapper {self.mapper!r}; choose 'implicit' or 'explicit'")
         if int(self.budget) != self.budget or self.budget < 1:
             raise ValueError(f"budget must be at least 1 measurement, got {self.budget!r}")
         if not self.epsilon >= 0:
@@ -130,13 +137,16 @@ class Mission:
         write_json_atomically(self.out / METRICS_FILE, {**self._header(), "steps": self.records})
         # (the budget in the header is the current one: a resumed mission may have raised it)
 
-    def _restore(self, trainer: Trainer, planner, sim: Simulator) -> list:
+    def _restore(self, trainer: Trainer, explicit: ExplicitMap | None, planner, sim: Simulator) -> list:
         state = torch.load(self.out / CHECKPOINT_FILE, weights_only=False)
         if state["steps"] != len(self.records):
             raise ResultsFolderError(f"checkpoint in {self.out} is for step {state['steps']}, metrics for step "
                                      f"{len(self.records)}; pass --overwrite to start again")
         for record in self.records:  # the simulator is deterministic: measure the same views again
-            trainer.add_measurement(sim.render(view_to_pose(*record["view_rad"])))
+            measurement = sim.render(view_to_pose(*record["view_rad"]))
+            trainer.add_measurement(measurement)
+            if explicit is not None:  # integration is deterministic too: rebuild the voxel map
+                explicit.integrate(measurement)
         trainer.field.load_state_dict(state["field"])
         trainer.optimizer.load_state_dict(state["optimizer"])
         trainer.rng.bit_generator.state = state["trainer_rng"]
@@ -146,22 +156,35 @@ class Mission:
         return [np.array(r["view_rad"]) for r in self.records]
 
     # ----------------------------------------------------------------- the loop
+    def _make_planner(self):
+        cfg, preset = self.config, self.preset
+        if cfg.planner == "replay":
+            stored = json.loads(Path(cfg.replay).read_text())
+            views = np.array([r["view_rad"] for r in stored["steps"]])
+            if len(views) < cfg.budget:
+                raise ValueError(f"{cfg.replay} holds {len(views)} views, fewer than the budget {cfg.budget}")
+            return ReplayPlanner(preset.plan, np.random.default_rng(cfg.seed + 1), views)
+        return make_planner(cfg.planner, preset.plan, seed=cfg.seed + 1, epsilon=cfg.epsilon, budget=cfg.budget,
+                            n_ste_candidates=preset.explicit.n_candidates)
+
     def run(self, on_step=None) -> list[dict]:
         """Run the remaining steps; ``on_step(record)`` is called after each (e.g. to print a table row)."""
         cfg, preset = self.config, self.preset
         sim = Simulator(self.scene)
         field = SemanticField(preset.field, seed=cfg.seed)
         trainer = Trainer(field, preset.train, preset.render, seed=cfg.seed)
-        planner = make_planner(cfg.planner, preset.plan, seed=cfg.seed + 1, epsilon=cfg.epsilon, budget=cfg.budget)
+        explicit = ExplicitMap(preset.explicit) if cfg.mapper == "explicit" or cfg.planner == "ste" else None
+        train_field = cfg.mapper == "implicit" or cfg.planner in ("stair", "exploration")
+        planner = self._make_planner()
         evaluator = Evaluator(sim, self.targets, preset, seed=cfg.seed)
-        visited = self._restore(trainer, planner, sim) if self.records else []
-        self.field, self.evaluator = field, evaluator
+        visited = self._restore(trainer, explicit, planner, sim) if self.records else []
+        self.field, self.explicit, self.evaluator = field, explicit, evaluator
         for step in range(len(self.records) + 1, cfg.budget + 1):
             start = time.perf_counter()
             if step == 1:
                 view, decision = np.array(TOP_VIEW), None
             else:
-                decision = planner.next_view(field, np.array(visited), self.targets)
+                decision = planner.next_view(explicit if cfg.planner == "ste" else field, np.array(visited), self.targets)
                 view = decision.view
             t_plan = time.perf_counter() - start
             start = time.perf_counter()
@@ -170,9 +193,11 @@ class Mission:
             t_measure = time.perf_counter() - start
             start = time.perf_counter()
             trainer.add_measurement(measurement)
-            history = trainer.update()
+            history = trainer.update() if train_field else []
+            if explicit is not None:
+                explicit.integrate(measurement)
             t_train = time.perf_counter() - start
-            result = evaluator.evaluate(field)
+            result = evaluator.evaluate(explicit if cfg.mapper == "explicit" else field)
             visited.append(np.asarray(view, dtype=float))
             record = {
                 "step": step,
@@ -180,8 +205,8 @@ class Mission:
                 "view_rad": np.asarray(view, dtype=float).tolist(),
                 "pose": pose.tolist(),
                 "utility": None, "exploitation": None, "exploration": None,
-                "loss": history[-1].total,
-                "loss_mean_last10": float(np.mean([h.total for h in history[-10:]])),
+                "loss": history[-1].total if history else None,
+                "loss_mean_last10": float(np.mean([h.total for h in history[-10:]])) if history else None,
                 **{k: result[k] for k in ("psnr", "precision", "completeness", "f1", "chamfer")},
                 "time_s": {"plan": t_plan, "measure": t_measure, "train": t_train, "evaluate": result["time_total_s"]},
             }

@@ -9,6 +9,8 @@ Every mission starts from the top view; planners never return a view already vis
   fixed        a spiral down the hemisphere, no map feedback (the reference code's Fibonacci spiral)
   max_distance the random candidate farthest (mean squared distance) from the visited cameras
   uniform      a random view, area-uniform on the hemisphere
+  ste          the explicit baseline's ROI utility on its voxel map (see explicit.py)
+  replay       the views of an earlier mission, in order (for the paper's cross-validation)
 """
 from __future__ import annotations
 
@@ -146,15 +148,52 @@ class UniformPlanner(Planner):
                 return Decision(view=view[0])
 
 
-PLANNERS = ("stair", "exploration", "fixed", "max_distance", "uniform")
+class STEPlanner(Planner):
+    """The explicit baseline: the random candidate with the highest ROI utility on the voxel map
+    (``ExplicitMap.roi_scores``); area-uniform candidates (the reference code's cube-normalised
+    sampling is biased) and, like the others, never within 8.1 degrees of a visited view."""
+
+    name = "ste"
+    needs_field = True
+
+    def __init__(self, cfg: PlanConfig, rng: np.random.Generator, n_candidates: int = 100):
+        super().__init__(cfg, rng)
+        self.n_candidates = n_candidates
+
+    def next_view(self, explicit_map, visited, targets) -> Decision:
+        candidates = random_hemisphere(self.n_candidates, self.rng)
+        utility = explicit_map.roi_scores(candidates, targets)
+        best = int(np.argmax(np.where(far_enough(candidates, visited), utility, -np.inf)))
+        return Decision(view=candidates[best], candidates=candidates, chosen_index=best,
+                        scores=Scores(exploration=utility, exploitation=utility, utility=utility))
+
+
+class ReplayPlanner(Planner):
+    """Follows the views of a recorded mission, in order (no map feedback)."""
+
+    name = "replay"
+
+    def __init__(self, cfg: PlanConfig, rng: np.random.Generator, views: np.ndarray):
+        super().__init__(cfg, rng)
+        self.views = np.asarray(views, dtype=float)
+
+    def next_view(self, field, visited, targets) -> Decision:
+        if len(visited) >= len(self.views):
+            raise ValueError(f"the replayed mission has only {len(self.views)} views")
+        return Decision(view=self.views[len(visited)])
+
+
+PLANNERS = ("stair", "exploration", "fixed", "max_distance", "uniform", "ste")
 
 
 def make_planner(name: str, cfg: PlanConfig, seed: int, epsilon: float | None = None, budget: int = 10,
-                 options: UtilityOptions | None = None) -> Planner:
+                 options: UtilityOptions | None = None, n_ste_candidates: int = 100) -> Planner:
     """Build a planner by name, with its own seeded random generator."""
     if name not in PLANNERS:
         raise ValueError(f"unknown planner {name!r}; choose one of {', '.join(PLANNERS)}")
     rng = np.random.default_rng(seed)
+    if name == "ste":
+        return STEPlanner(cfg, rng, n_ste_candidates)
     options = options or UtilityOptions(epsilon=cfg.epsilon if epsilon is None else epsilon)
     if name == "stair":
         return UtilityPlanner(cfg, rng, options)

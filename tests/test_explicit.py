@@ -3,7 +3,8 @@ import pytest
 import torch
 
 import stair_lite  # noqa: F401
-from stair_lite.explicit import ExplicitConfig, ExplicitMap, logit
+from stair_lite.config import ExplicitConfig
+from stair_lite.explicit import ExplicitMap, logit
 from stair_lite.geometry import Intrinsics, view_to_pose
 from stair_lite.measurement import Measurement, back_project
 from stair_lite.scenes import load_scene

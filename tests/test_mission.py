@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import stair_lite  # noqa: F401
-from stair_lite.config import EvalConfig, FieldConfig, PlanConfig, RenderConfig, TrainConfig, get_preset
+from stair_lite.config import EvalConfig, ExplicitConfig, FieldConfig, PlanConfig, RenderConfig, TrainConfig, get_preset
 from stair_lite.mission import Mission, MissionConfig, ResultsFolderError
 
 TINY = replace(
@@ -16,6 +16,7 @@ TINY = replace(
     train=TrainConfig(rays_new=128, rays_replay=128, iterations_per_view=5),
     eval=EvalConfig(n_test_views=3, image_scale=0.1, mesh_resolution=32, mesh_points=2000),
     plan=PlanConfig(n_uniform=12, top_k=2, n_resample=2, candidate_scale=0.03, candidate_samples=24),
+    explicit=ExplicitConfig(resolution=32, n_candidates=12, candidate_scale=0.03),
 )
 
 
@@ -83,3 +84,20 @@ def test_targets_must_be_in_the_scene():
 def test_every_planner_completes_a_mission(tmp_path, planner):
     records = run(tmp_path, planner, budget=2, planner=planner)
     assert len(records) == 2 and records[1]["view_deg"] != records[0]["view_deg"]
+
+
+def test_ste_mission_and_the_cross_validation_replay(tmp_path):
+    ste = Mission(MissionConfig(planner="ste", mapper="explicit", budget=3), out=tmp_path / "ste", preset=TINY).run()
+    assert ste[1]["utility"] is not None and ste[0]["loss"] is None  # the explicit map is not trained
+    implicit = Mission(MissionConfig(planner="replay", replay=str(tmp_path / "ste" / "metrics.json"), budget=3),
+                       out=tmp_path / "ste_implicit", preset=TINY).run()
+    assert [r["view_rad"] for r in implicit] == [r["view_rad"] for r in ste]  # STE's views, the field's map
+    assert implicit[-1]["loss"] is not None
+
+
+def test_replay_needs_a_file_and_enough_views(tmp_path):
+    with pytest.raises(ValueError, match="needs a replay file"):
+        MissionConfig(planner="replay")
+    run(tmp_path, "short", budget=2, planner="uniform")
+    with pytest.raises(ValueError, match="fewer than the budget"):
+        Mission(MissionConfig(planner="replay", replay=str(tmp_path / "short" / "metrics.json"), budget=3), preset=TINY).run()

@@ -134,9 +134,10 @@ def check_utility(utility, n_trials: int = 20, seed: int = 0) -> bool:
             continue
         n = hh * ww
         if _close(got, (1 - epsilon) * u_et + epsilon * u_er):
-            hint = "that is a convex mix (1 - eps) U_et + eps U_er: Eq. 14 is U_et + eps U_er (U_et is not scaled)"
-        elif _close(got, u_et + epsilon * (u_er - u_et)):
-            hint = "U_er sums over ALL rays, target rays included, not only the non-target ones"
+            hint = ("that is a convex mix (1 - eps) U_et + eps U_er (the same as U_et + eps * [sum over NON-target rays]): "
+                    "Eq. 14 is U_et + eps U_er, and U_er sums over ALL rays, target rays included")
+        elif len(targets) > 1 and _close(got, _utility_reference(h, labels, targets[:1], epsilon)[0]):
+            hint = "with several target classes a ray counts if its label is ANY of them: np.isin(labels, targets)"
         elif _close(got, u_et) or _close(got, u_er):
             hint = "you returned one of the two scores alone: U = U_et + eps U_er"
         elif _close(got, epsilon * u_et + u_er):

@@ -4,6 +4,8 @@
   render   render a scene from a few views into a figure (the simulated world)
   fit      fit a field to fixed views of a scene and report target-only PSNR and mesh F1
   run      one active reconstruction mission (planner, scene, seed) with per-step metrics
+  sweep    missions over scenes x planner variants x seeds (resumable), then the results table and plots
+  report   the results table, curves and summary of a sweep folder
 """
 from __future__ import annotations
 
@@ -158,6 +160,59 @@ def _cmd_run(args):
     return 0
 
 
+def _cmd_sweep(args):
+    from .experiments import ALL_VARIANTS, BASE_VARIANTS, PAPER_SCENES, SweepSpec, run_sweep
+
+    scenes = PAPER_SCENES if args.scenes == "all" else tuple(args.scenes.split(","))
+    variants = {"all": ALL_VARIANTS, "base": BASE_VARIANTS}.get(args.planners, tuple(args.planners.split(",")))
+    if args.seeds < 1:
+        raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
+    if args.first_seed < 0:
+        raise ValueError(f"--first-seed must be >= 0, got {args.first_seed}")
+    spec = SweepSpec(scenes, variants, tuple(range(args.first_seed, args.first_seed + args.seeds)), args.preset, args.budget)
+    print(f"sweep: {len(spec.cells())} cells ({len(scenes)} scenes x {len(variants)} variants x {args.seeds} seeds), "
+          f"preset {args.preset}, {args.workers} worker(s), results in {args.out}")
+    start = time.perf_counter()
+    try:
+        outcomes = run_sweep(spec, args.out, workers=args.workers, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print("\ninterrupted: finished cells are kept; run the same command again to continue", file=sys.stderr)
+        return 130
+    ran = sum(1 for _, o in outcomes if o != "finished before")
+    print(f"{ran} cells run in {time.perf_counter() - start:.0f} s, {len(outcomes) - ran} were finished before")
+    args.results = args.out
+    return _cmd_report(args)
+
+
+def _cmd_report(args):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .experiments import collect, summary, write_table
+    from .plotting import plot_sweep_curves
+
+    root = Path(args.results)
+    rows = collect(root)
+    if not rows:
+        raise ValueError(f"no finished mission results under {root}")
+    table = write_table(rows, root / "results.csv")
+    for metric, label in (("psnr", "target-only PSNR [dB]"), ("f1", "target mesh F1 (1 cm)")):
+        axes = plot_sweep_curves(rows, metric, ylabel=label)
+        axes[0].figure.tight_layout()
+        axes[0].figure.savefig(root / f"curves_{metric}.png", dpi=90)
+    plt.close("all")
+    entries = summary(rows)
+    print(f"{'scene':10s} {'variant':16s} {'n':>2s} {'PSNR mean-over-steps':>21s} {'PSNR final':>14s} {'F1 mean-over-steps':>19s} {'F1 final':>14s}")
+    for e in entries:
+        print(f"{e['scene']:10s} {e['variant']:16s} {e['seeds']:2d} {e['psnr_auc_mean']:13.2f} +- {e['psnr_auc_std']:4.2f} "
+              f"{e['psnr_final_mean']:7.2f} +- {e['psnr_final_std']:4.2f} {e['f1_auc_mean']:11.3f} +- {e['f1_auc_std']:5.3f} "
+              f"{e['f1_final_mean']:6.3f} +- {e['f1_final_std']:5.3f}")
+    print(f"wrote {table}, {root / 'curves_psnr.png'}, {root / 'curves_f1.png'}")
+    return 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m stair_lite", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -181,7 +236,7 @@ def main(argv=None):
     p.add_argument("--scene", default="scene1")
     p.add_argument("--planner", default="stair", help="stair, exploration, fixed, max_distance, uniform, ste or replay")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--preset", default="lite", choices=["lite", "paper"])
+    p.add_argument("--preset", default="lite", choices=["lite", "paper", "smoke"])
     p.add_argument("--targets", default=None, help="comma-separated class names (default: the scene's)")
     p.add_argument("--budget", type=int, default=10, help="number of measurements, the top view included")
     p.add_argument("--epsilon", type=float, default=0.2, help="exploration weight of the STAIR utility")
@@ -192,6 +247,20 @@ def main(argv=None):
     p.add_argument("--overwrite", action="store_true", help="replace the results found in --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_run)
+    p = sub.add_parser("sweep", help="missions over scenes x planner variants x seeds")
+    p.add_argument("--scenes", default="all", help="'all' (scene1-4) or comma-separated scene names")
+    p.add_argument("--planners", default="all", help="'all', 'base' or comma-separated variants (e.g. stair,ste,stair_eps0.5)")
+    p.add_argument("--seeds", type=int, default=5, help="number of seeds per cell")
+    p.add_argument("--first-seed", type=int, default=0)
+    p.add_argument("--preset", default="lite", choices=["lite", "paper", "smoke"])
+    p.add_argument("--budget", type=int, default=10)
+    p.add_argument("--workers", type=int, default=1, help="parallel worker processes (spawned)")
+    p.add_argument("--out", default="runs/sweep")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(func=_cmd_sweep)
+    p = sub.add_parser("report", help="results table, curves and summary of a sweep folder")
+    p.add_argument("--results", default="runs/sweep")
+    p.set_defaults(func=_cmd_report)
     args = parser.parse_args(argv)
     try:
         return args.func(args) or 0

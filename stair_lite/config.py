@@ -1,4 +1,4 @@
-"""Configuration: plain frozen dataclasses and the two named presets, ``paper`` and ``lite``.
+"""Configuration: plain frozen dataclasses and the named presets ``paper``, ``lite`` and ``smoke``.
 
 ``paper`` carries the paper's numbers (Sec. IV-A). ``lite`` is the CPU default; its sizes were chosen
 by measurement (see ``benchmarks/`` and the README), trading grid resolution and rays per batch for speed.
@@ -116,7 +116,18 @@ LITE = Preset(
     explicit=ExplicitConfig(resolution=64),
 )
 
-PRESETS = {"paper": PAPER, "lite": LITE}
+# A seconds-long preset for smoke tests of whole pipelines (missions, sweeps); its metrics mean little.
+SMOKE = Preset(
+    name="smoke",
+    field=FieldConfig(grid_resolution=24, rgb_hidden=(16,)),
+    render=RenderConfig(n_samples=24, n_surface_samples=8),
+    train=TrainConfig(rays_new=128, rays_replay=128, iterations_per_view=5),
+    eval=EvalConfig(n_test_views=3, image_scale=0.1, mesh_resolution=32, mesh_points=2000),
+    plan=PlanConfig(n_uniform=12, top_k=2, n_resample=2, candidate_scale=0.03, candidate_samples=24),
+    explicit=ExplicitConfig(resolution=32, n_candidates=12, candidate_scale=0.03),
+)
+
+PRESETS = {"paper": PAPER, "lite": LITE, "smoke": SMOKE}
 
 
 def get_preset(name: str = "lite", **overrides) -> Preset:

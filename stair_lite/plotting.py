@@ -120,3 +120,30 @@ def plot_camera_path(scene, records, ax=None, title: str = ""):
     set_equal_3d(ax, 2.1, z_range=(0.0, 2.1))
     ax.set_title(title)
     return ax
+
+
+def plot_sweep_curves(rows, metric: str = "psnr", variants=None, axes=None, ylabel: str | None = None):
+    """One panel per scene, one line per variant: mean over seeds with a shaded +-1 std band (paper Fig. 4)."""
+    from .experiments import curves
+
+    data = curves(rows, metric)
+    scenes = sorted({s for s, _ in data})
+    variants = variants or sorted({v for _, v in data})
+    if axes is None:
+        _, axes = plt.subplots(1, len(scenes), figsize=(4 * len(scenes), 3.3), squeeze=False)
+        axes = axes[0]
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, scene in zip(axes, scenes):
+        for i, variant in enumerate(variants):
+            if (scene, variant) not in data:
+                continue
+            steps, mean, std, n = data[(scene, variant)]
+            style = "--" if variant in ("stair_explicit", "ste_implicit") else "-"
+            ax.plot(steps, mean, style, color=colours[i % len(colours)], label=f"{variant} (n={n})")
+            ax.fill_between(steps, mean - std, mean + std, color=colours[i % len(colours)], alpha=0.15)
+        ax.set_title(scene)
+        ax.set_xlabel("measurements")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel(ylabel or metric)
+    axes[-1].legend(fontsize=7, loc="lower right")
+    return axes

@@ -1,23 +1,12 @@
 import json
-from dataclasses import replace
-
 import numpy as np
 import pytest
 
 import stair_lite  # noqa: F401
-from stair_lite.config import EvalConfig, ExplicitConfig, FieldConfig, PlanConfig, RenderConfig, TrainConfig, get_preset
+from stair_lite.config import get_preset
 from stair_lite.mission import Mission, MissionConfig, ResultsFolderError
 
-TINY = replace(
-    get_preset("lite"),
-    name="tiny",
-    field=FieldConfig(grid_resolution=24, rgb_hidden=(16,)),
-    render=RenderConfig(n_samples=24, n_surface_samples=8),
-    train=TrainConfig(rays_new=128, rays_replay=128, iterations_per_view=5),
-    eval=EvalConfig(n_test_views=3, image_scale=0.1, mesh_resolution=32, mesh_points=2000),
-    plan=PlanConfig(n_uniform=12, top_k=2, n_resample=2, candidate_scale=0.03, candidate_samples=24),
-    explicit=ExplicitConfig(resolution=32, n_candidates=12, candidate_scale=0.03),
-)
+TINY = get_preset("smoke")
 
 
 def run(tmp_path, name="m", budget=3, planner="stair", on_step=None, **kw):

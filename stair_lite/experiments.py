@@ -1,0 +1,246 @@
+"""Experiment sweeps (paper Sec. IV): scenes x planner variants x seeds, one mission per cell.
+
+Introduced in notebook 06. Each cell writes its own folder ``<out>/<scene>/<variant>/seed<k>/`` (the
+mission's metrics.json and checkpoint), so a finished cell is never recomputed and killing a sweep
+loses nothing finished. Cells run in worker processes started with ``spawn`` (the renderer hangs in
+forked children). ``collect`` gathers every finished cell into one table, a row per
+(scene, variant, seed, step).
+
+Variants: the planners (stair, exploration, fixed, max_distance, uniform), ``ste`` (the explicit
+baseline, evaluated on its voxel map), the paper's cross-validation ``stair_explicit`` (STAIR's views
+fused into the explicit map) and ``ste_implicit`` (STE's views used to train the field), and
+``stair_eps<value>`` (STAIR with another exploration weight, for the ablation).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .config import get_preset
+from .mission import METRICS_FILE, Mission, MissionConfig, ResultsFolderError, write_json_atomically
+from .scenes import list_scenes
+
+BASE_VARIANTS = ("stair", "exploration", "fixed", "max_distance", "uniform", "ste")
+CROSS_VALIDATION = {"stair_explicit": "stair", "ste_implicit": "ste"}  # variant -> the cell whose views it replays
+ALL_VARIANTS = BASE_VARIANTS + tuple(CROSS_VALIDATION)
+PAPER_SCENES = ("scene1", "scene2", "scene3", "scene4")
+SWEEP_FILE = "sweep.json"
+TABLE_COLUMNS = ("scene", "variant", "seed", "step", "psnr", "precision", "completeness", "f1", "chamfer",
+                 "utility", "exploitation", "exploration", "loss", "elevation_deg", "azimuth_deg",
+                 "time_plan_s", "time_train_s", "time_evaluate_s")
+
+
+@dataclass(frozen=True)
+class Cell:
+    scene: str
+    variant: str
+    seed: int
+
+    def folder(self, root: Path) -> Path:
+        return Path(root) / self.scene / self.variant / f"seed{self.seed}"
+
+
+def check_variant(name: str) -> str:
+    """Accept a known variant name or ``stair_eps<non-negative number>``."""
+    if name in ALL_VARIANTS:
+        return name
+    if name.startswith("stair_eps"):
+        try:
+            if float(name[len("stair_eps"):]) >= 0:
+                return name
+        except ValueError:
+            pass
+    raise ValueError(f"unknown planner variant {name!r}; choose from {', '.join(ALL_VARIANTS)} or stair_eps<value>")
+
+
+def mission_config(cell: Cell, root: Path, preset: str, budget: int) -> MissionConfig:
+    """The mission a cell runs."""
+    common = dict(scene=cell.scene, seed=cell.seed, preset=preset, budget=budget)
+    if cell.variant in CROSS_VALIDATION:
+        source = Cell(cell.scene, CROSS_VALIDATION[cell.variant], cell.seed).folder(root) / METRICS_FILE
+        mapper = "explicit" if cell.variant == "stair_explicit" else "implicit"
+        return MissionConfig(planner="replay", replay=str(source), mapper=mapper, **common)
+    if cell.variant.startswith("stair_eps"):
+        return MissionConfig(planner="stair", epsilon=float(cell.variant[len("stair_eps"):]), **common)
+    return MissionConfig(planner=cell.variant, mapper="explicit" if cell.variant == "ste" else "implicit", **common)
+
+
+def cell_state(cell: Cell, root: Path, budget: int) -> str:
+    """'done', 'partial', 'missing' or 'corrupt' (an unreadable metrics file)."""
+    path = cell.folder(root) / METRICS_FILE
+    if not path.exists():
+        return "missing"
+    try:
+        steps = json.loads(path.read_text()).get("steps", [])
+    except (json.JSONDecodeError, UnicodeDecodeError, AttributeError):
+        return "corrupt"
+    return "done" if len(steps) >= budget else "partial"
+
+
+def run_cell(cell: Cell, root: str, preset: str, budget: int, threads: int | None = None) -> tuple[Cell, str]:
+    """Run (or resume) one cell; a corrupt or unresumable cell is redone from scratch."""
+    import torch
+
+    if threads:
+        torch.set_num_threads(threads)
+    root = Path(root)
+    config = mission_config(cell, root, preset, budget)
+    state = cell_state(cell, root, budget)
+    try:
+        Mission(config, out=cell.folder(root), resume=state == "partial", overwrite=state == "corrupt").run()
+        return cell, "redone (was corrupt)" if state == "corrupt" else "ran"
+    except ResultsFolderError as err:  # an unusable partial result: start the cell again
+        Mission(config, out=cell.folder(root), overwrite=True).run()
+        return cell, f"redone ({err})"
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    scenes: tuple[str, ...]
+    variants: tuple[str, ...]
+    seeds: tuple[int, ...]
+    preset: str = "lite"
+    budget: int = 10
+
+    def __post_init__(self):
+        known = set(list_scenes())
+        bad = [s for s in self.scenes if s not in known]
+        if bad:
+            raise ValueError(f"unknown scenes {bad}; shipped scenes: {', '.join(sorted(known))}")
+        for v in self.variants:
+            check_variant(v)
+        if not self.seeds or min(self.seeds) < 0:
+            raise ValueError(f"seeds must be non-negative, got {list(self.seeds)}")
+        if self.budget < 1:
+            raise ValueError(f"budget must be at least 1, got {self.budget}")
+        get_preset(self.preset)
+
+    def cells(self) -> list[Cell]:
+        """All cells, the cross-validation ones last (they replay other cells' views)."""
+        ordered = sorted(self.variants, key=lambda v: v in CROSS_VALIDATION)
+        return [Cell(s, v, k) for v in ordered for s in self.scenes for k in self.seeds]
+
+
+def check_sweep_folder(root: Path, spec: SweepSpec) -> None:
+    """Refuse a folder written by a sweep with another preset or budget (results must not mix)."""
+    root.mkdir(parents=True, exist_ok=True)
+    path = root / SWEEP_FILE
+    mine = {"preset": spec.preset, "budget": spec.budget, "preset_values": asdict(get_preset(spec.preset))}
+    if path.exists():
+        stored = json.loads(path.read_text())
+        if {k: stored.get(k) for k in mine} != json.loads(json.dumps(mine)):
+            raise ValueError(f"{root} holds results of a sweep with preset {stored.get('preset')!r} and budget "
+                             f"{stored.get('budget')}; use another folder for preset {spec.preset!r}, budget {spec.budget}")
+    else:
+        write_json_atomically(path, mine)
+
+
+def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: bool = True, log=print) -> list[tuple[Cell, str]]:
+    """Run every unfinished cell (in ``workers`` spawned processes); returns what happened to each."""
+    from tqdm import tqdm
+
+    root = Path(root)
+    check_sweep_folder(root, spec)
+    cells = spec.cells()
+    todo = [c for c in cells if cell_state(c, root, spec.budget) != "done"]
+    for c in cells:
+        if cell_state(c, root, spec.budget) == "corrupt":
+            log(f"corrupt results in {c.folder(root)}: the cell will be redone")
+    outcomes = [(c, "finished before") for c in cells if c not in todo]
+    bar = tqdm(total=len(cells), initial=len(outcomes), desc="cells", unit="cell", disable=not progress)
+    waves = [[c for c in todo if c.variant not in CROSS_VALIDATION], [c for c in todo if c.variant in CROSS_VALIDATION]]
+    threads = 1 if workers > 1 else None
+    for wave in waves:
+        if not wave:
+            continue
+        if workers <= 1:
+            for c in wave:
+                outcomes.append(run_cell(c, str(root), spec.preset, spec.budget))
+                bar.update(1)
+            continue
+        with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+            futures = [pool.submit(run_cell, c, str(root), spec.preset, spec.budget, threads) for c in wave]
+            for future in as_completed(futures):
+                outcomes.append(future.result())
+                bar.update(1)
+    bar.close()
+    return outcomes
+
+
+def collect(root: str | Path, log=print) -> list[dict]:
+    """One row per (scene, variant, seed, step) from every readable cell under ``root``."""
+    rows = []
+    for path in sorted(Path(root).glob(f"*/*/seed*/{METRICS_FILE}")):
+        scene, variant, seed = path.parts[-4], path.parts[-3], int(path.parts[-2][4:])
+        try:
+            steps = json.loads(path.read_text())["steps"]
+        except (json.JSONDecodeError, KeyError, UnicodeDecodeError) as err:
+            log(f"skipping unreadable {path}: {err}")
+            continue
+        for r in steps:
+            rows.append({
+                "scene": scene, "variant": variant, "seed": seed, "step": r["step"],
+                **{k: r[k] for k in ("psnr", "precision", "completeness", "f1", "chamfer", "utility", "exploitation",
+                                     "exploration", "loss")},
+                "elevation_deg": r["view_deg"][0], "azimuth_deg": r["view_deg"][1],
+                "time_plan_s": r["time_s"]["plan"], "time_train_s": r["time_s"]["train"],
+                "time_evaluate_s": r["time_s"]["evaluate"],
+            })
+    return rows
+
+
+def write_table(rows: list[dict], path: str | Path) -> Path:
+    path = Path(path)
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=TABLE_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+def read_table(path: str | Path) -> list[dict]:
+    """Read a results CSV back, with numbers as floats (empty cells as None)."""
+    with Path(path).open() as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        for k, v in r.items():
+            if k not in ("scene", "variant"):
+                r[k] = None if v == "" else float(v)
+    return rows
+
+
+def curves(rows: list[dict], metric: str) -> dict[tuple[str, str], tuple[np.ndarray, np.ndarray, np.ndarray, int]]:
+    """(scene, variant) -> (steps, mean, std over seeds, number of seeds) of a metric against the step."""
+    out = {}
+    for key in sorted({(r["scene"], r["variant"]) for r in rows}):
+        sel = [r for r in rows if (r["scene"], r["variant"]) == key]
+        steps = np.array(sorted({int(r["step"]) for r in sel}))
+        values = [[r[metric] for r in sel if int(r["step"]) == s] for s in steps]
+        out[key] = (steps, np.array([np.mean(v) for v in values]), np.array([np.std(v) for v in values]),
+                    len({r["seed"] for r in sel}))
+    return out
+
+
+def summary(rows: list[dict], metrics=("psnr", "f1")) -> list[dict]:
+    """Per (scene, variant): mean +- std over seeds of each metric's area under the curve (mean over
+    steps) and of its final-step value."""
+    table = []
+    for scene, variant in sorted({(r["scene"], r["variant"]) for r in rows}):
+        sel = [r for r in rows if (r["scene"], r["variant"]) == (scene, variant)]
+        entry = {"scene": scene, "variant": variant, "seeds": len({r["seed"] for r in sel})}
+        for m in metrics:
+            per_seed_auc, per_seed_final = [], []
+            for seed in sorted({r["seed"] for r in sel}):
+                mine = sorted((r for r in sel if r["seed"] == seed), key=lambda r: r["step"])
+                per_seed_auc.append(np.mean([r[m] for r in mine]))
+                per_seed_final.append(mine[-1][m])
+            entry[f"{m}_auc_mean"], entry[f"{m}_auc_std"] = float(np.mean(per_seed_auc)), float(np.std(per_seed_auc))
+            entry[f"{m}_final_mean"], entry[f"{m}_final_std"] = float(np.mean(per_seed_final)), float(np.std(per_seed_final))
+        table.append(entry)
+    return table

@@ -1,7 +1,7 @@
 """Benchmark of view planning and of a whole mission (lite preset by default).
 
 Run: .venv/bin/python benchmarks/bench_planning.py [--preset lite] [--repeats 5] [--mission]
-Prints: the median time of one STAIR planning step (all N_uni + K * N_re candidate renders, from the
+Prints: the median time of one STAIR planning step and of one STE planning step (all N_uni + K * N_re candidate renders, from the
 field snapshot), how often the snapshot picks the same view as the exact field (every sample through
 the MLPs) on the same candidates, the exact-utility regret when it does not, and (with --mission) the
 wall time of one full 10-measurement STAIR mission with evaluation after every step.
@@ -14,6 +14,7 @@ import numpy as np
 
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
+from stair_lite.explicit import ExplicitMap
 from stair_lite.field import SemanticField
 from stair_lite.geometry import TOP_VIEW, Intrinsics, fibonacci_hemisphere, view_to_pose
 from stair_lite.mission import Mission, MissionConfig
@@ -68,6 +69,21 @@ def main():
           f"exact utility of the snapshot's choice within {100 * max(regrets):.1f} % of the best "
           f"(median {100 * statistics.median(regrets):.1f} %), rank correlation "
           f"{np.corrcoef(np.argsort(np.argsort(fast)), np.argsort(np.argsort(exact)))[0, 1]:.3f} (last set)")
+
+    # The explicit STE baseline: its map integrates the same views, then one ROI planning step.
+    emap = ExplicitMap(preset.explicit)
+    start = time.perf_counter()
+    for view in visited:
+        emap.integrate(sim.render(view_to_pose(*view)))
+    t_integrate = (time.perf_counter() - start) / len(visited)
+    ste = make_planner("ste", preset.plan, seed=0, n_ste_candidates=preset.explicit.n_candidates)
+    ste_times = []
+    for _ in range(args.repeats):
+        start = time.perf_counter()
+        ste.next_view(emap, np.array(visited), scene.targets)
+        ste_times.append(time.perf_counter() - start)
+    print(f"STE ({preset.explicit.resolution}^3 voxels): integrate one view {t_integrate:.2f} s; one planning step "
+          f"({preset.explicit.n_candidates} candidates): median {statistics.median(ste_times):.2f} s over {args.repeats} runs")
 
     if args.mission:
         start = time.perf_counter()

@@ -48,16 +48,19 @@ class ExplicitMap:
         return (ijk[..., 2] * r + ijk[..., 1]) * r + ijk[..., 0], inside
 
     def _march(self, origins: torch.Tensor, dirs: torch.Tensor, t_end: torch.Tensor | None = None, step_voxels: float = 0.5):
-        """Voxels along rays from the cube entry to ``t_end`` (or the exit), sampled every ``step_voxels`` voxels."""
-        t_near, t_far, hit = ray_box_intersection(origins, dirs, self.cfg.bound, near=0.0)
+        """Flat voxel indices (R, S) along rays from the cube entry to ``t_end`` (or the exit), sampled
+        every ``step_voxels`` voxels, and which samples are valid (on the ray's stretch inside the cube)."""
+        b, r = self.cfg.bound, self.cfg.resolution
+        t_near, t_far, hit = ray_box_intersection(origins, dirs, b, near=0.0)
         if t_end is not None:
             t_far = torch.minimum(t_far, t_end)
-        step = step_voxels * self.voxel / dirs.norm(dim=1)
+        o, d = (origins + b) / self.voxel, dirs / self.voxel  # voxel units: voxel (i, j, k) is [i, i+1) x ...
+        step = step_voxels / d.norm(dim=1)
         n = int(torch.ceil(((t_far - t_near).clamp(min=0) / step).max()).item()) + 1 if len(origins) else 1
         t = t_near[:, None] + step[:, None] * torch.arange(n, device=self.device)
         valid = hit[:, None] & (t < t_far[:, None])
-        index, inside = self.voxel_index(origins[:, None, :] + t[..., None] * dirs[:, None, :])
-        return index, valid & inside, t
+        ijk = (o[:, None, :] + t[..., None] * d[:, None, :]).floor_().clamp_(0, r - 1).to(torch.int64)
+        return (ijk[..., 2] * r + ijk[..., 1]) * r + ijk[..., 0], valid
 
     # ------------------------------------------------------------------ mapping
     def integrate(self, m: Measurement) -> None:
@@ -74,7 +77,7 @@ class ExplicitMap:
         hit = depth > 0
         rays = slice(None) if self.cfg.carve_background else hit  # rays that integrate free space
         t_end = torch.where(hit, depth, torch.full_like(depth, float("inf")))[rays]
-        index, valid, _ = self._march(origins[rays], dirs[rays], t_end)
+        index, valid = self._march(origins[rays], dirs[rays], t_end)
         end_index, end_inside = self.voxel_index(origins[hit] + depth[hit, None] * dirs[hit])
         occupied = torch.unique(end_index[end_inside])
         free = torch.unique(index[valid])
@@ -131,7 +134,7 @@ class ExplicitMap:
         origins, dirs = pixel_rays(intrinsics, pose)
         origins = torch.as_tensor(origins, dtype=torch.float32, device=self.device)
         dirs = torch.as_tensor(dirs, dtype=torch.float32, device=self.device)
-        index, valid, _ = self._march(origins, dirs)
+        index, valid = self._march(origins, dirs)
         solid = (self.probability > 0.5) & torch.isin(self.labels, torch.as_tensor(targets, device=self.device))
         hit = solid[index] & valid
         first = hit.float().argmax(dim=1)
@@ -159,12 +162,12 @@ class ExplicitMap:
         table = torch.where(self.probability > 0.5, torch.full_like(table, -1.0), table)
         k = Intrinsics.from_fov().scaled(cfg.candidate_scale)
         scores = []
-        for start in range(0, len(views), 10):
-            rays = [pixel_rays(k, view_to_pose(el, az)) for el, az in views[start : start + 10]]
+        for start in range(0, len(views), 25):
+            rays = [pixel_rays(k, view_to_pose(el, az)) for el, az in views[start : start + 25]]
             origins = torch.as_tensor(np.concatenate([o for o, _ in rays]), dtype=torch.float32, device=self.device)
             dirs = torch.as_tensor(np.concatenate([d for _, d in rays]), dtype=torch.float32, device=self.device)
-            index, valid, _ = self._march(origins, dirs, step_voxels=1.0)
-            value = torch.where(valid, table[index], torch.zeros(1))
+            index, valid = self._march(origins, dirs, step_voxels=1.0)
+            value = table[index] * valid
             blocked = (value < 0).int()
             counted = (torch.cumsum(blocked, dim=1) - blocked) == 0  # up to and including the first occupied voxel
             ray_score = (value.clamp(min=0) * counted).sum(dim=1) / valid.sum(dim=1).clamp(min=1)

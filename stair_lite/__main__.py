@@ -71,6 +71,8 @@ def _cmd_fit(args):
         preset = replace(preset, train=replace(preset.train, iterations_per_view=args.iterations))
     if args.rays is not None:
         preset = replace(preset, train=replace(preset.train, rays_new=args.rays, rays_replay=args.rays))
+    if args.eval_preset is not None:
+        preset = replace(preset, eval=get_preset(args.eval_preset).eval)
     if args.views < 1:
         raise SystemExit(f"--views must be at least 1, got {args.views}")
     scene = load_scene(args.scene)
@@ -230,6 +232,7 @@ def main(argv=None):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--iterations", type=int, default=None, help="override iterations per view")
     p.add_argument("--rays", type=int, default=None, help="override new and replay rays per iteration")
+    p.add_argument("--eval-preset", default=None, choices=["lite", "paper"], help="evaluate with another preset's protocol")
     p.add_argument("--out", default=None, help="folder for the target mesh (PLY)")
     p.set_defaults(func=_cmd_fit)
     p = sub.add_parser("run", help="run one active reconstruction mission")

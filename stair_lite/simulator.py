@@ -50,6 +50,7 @@ class Simulator:
             node = self._pyscene.add(pyrender.Mesh.from_trimesh(mesh, smooth=False))
             self._seg_ids[node] = cls + 1  # id 0 means "nothing hit", so classes are shifted by one
         self._camera_node = None
+        self._camera_intrinsics = None
         self._set_camera(self.intrinsics)
 
     def _set_camera(self, intrinsics: Intrinsics):
@@ -59,17 +60,19 @@ class Simulator:
             intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy, znear=Z_NEAR, zfar=Z_FAR
         )
         self._camera_node = self._pyscene.add(camera, pose=np.eye(4))
-        self.intrinsics = intrinsics
+        self._camera_intrinsics = intrinsics
 
     def render(self, pose: np.ndarray, intrinsics: Intrinsics | None = None) -> Measurement:
-        """One measurement (rgb, z-depth, labels) from an OpenCV camera-to-world pose."""
+        """One measurement (rgb, z-depth, labels) from an OpenCV camera-to-world pose, with the simulator's
+        own intrinsics or, for this render only, the given ones."""
         pose = np.asarray(pose, dtype=np.float64)
         if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
             raise ValueError(f"pose must be a finite 4x4 camera-to-world matrix, got shape {pose.shape}")
-        if intrinsics is not None and intrinsics != self.intrinsics:
+        intrinsics = intrinsics or self.intrinsics
+        if intrinsics != self._camera_intrinsics:
             self._set_camera(intrinsics)
         self._pyscene.set_pose(self._camera_node, pose @ OPENCV_TO_OPENGL)
-        renderer = shared_renderer(self.intrinsics.width, self.intrinsics.height)
+        renderer = shared_renderer(intrinsics.width, intrinsics.height)
         colour, _ = renderer.render(self._pyscene, flags=pyrender.RenderFlags.FLAT)
         seg, depth = renderer.render(
             self._pyscene, flags=pyrender.RenderFlags.SEG, seg_node_map=self._seg_ids
@@ -80,7 +83,7 @@ class Simulator:
             depth=depth.astype(np.float32),
             labels=labels,
             pose=pose,
-            intrinsics=self.intrinsics,
+            intrinsics=intrinsics,
         )
 
     def render_view(self, elevation: float, azimuth: float, intrinsics: Intrinsics | None = None) -> Measurement:

@@ -130,3 +130,9 @@ def test_measurement_validation_names_the_problem():
         Measurement(**{**good, "depth": -np.ones((3, 4))})
     with pytest.raises(ValueError, match="class range"):
         Measurement(**{**good, "labels": np.full((3, 4), 9)})
+
+
+def test_other_intrinsics_apply_to_one_render_only(sim):
+    small = Intrinsics.from_fov(20, 10)
+    assert sim.render_view(0.5, 0.5, small).rgb.shape == (10, 20, 3)
+    assert sim.render_view(0.5, 0.5).rgb.shape == (120, 160, 3)  # back to the simulator's own camera

@@ -11,21 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from .common import call as _call
+
 from ..planners import MIN_SEPARATION
 
 # --------------------------------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------------------------------
 _RADIUS = 2.0  # the hemisphere radius of the camera centres (any radius gives the same choice)
-
-
-def _call(fn, *args):
-    """Call the learner's function; a stub that still raises NotImplementedError gets a clear message."""
-    try:
-        return fn(*args)
-    except NotImplementedError:
-        raise AssertionError(f"{getattr(fn, '__name__', 'the function')} raised NotImplementedError: "
-                             "replace the stub's body with your code") from None
 
 
 def _centres(views: np.ndarray) -> np.ndarray:

@@ -11,27 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .common import as_array as _as_array, call as _call
+
 from ..classes import NUM_CLASSES
 
 _ATOL = 1e-6
-
-
-def _call(fn, *args):
-    """Call the learner's function; a stub that still raises NotImplementedError gets a clear message."""
-    try:
-        return fn(*args)
-    except NotImplementedError:
-        raise AssertionError(f"{getattr(fn, '__name__', 'the function')} raised NotImplementedError: "
-                             "replace the stub's body with your code") from None
-
-
-def _as_array(value, shape, what: str) -> np.ndarray:
-    if value is None:
-        raise AssertionError(f"{what} returned None: fill in the function body (it still looks like the stub)")
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.shape != shape:
-        raise AssertionError(f"{what} returned shape {arr.shape}, expected {shape}")
-    return arr
 
 
 def _close(a, b, atol: float = _ATOL) -> bool:

@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common import call as _call
-
 from ..planners import MIN_SEPARATION
+from .common import call as _call
 
 # --------------------------------------------------------------------------------------------------
 # helpers

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common import as_array as _as_array, call as _call
-
 from ..geometry import Intrinsics, view_to_pose
 from ..measurement import Measurement, back_project
+from .common import as_array as _as_array, call as _call
 
 _ATOL = 1e-6
 

@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common import as_array as _as_array, call as _call
-
 from ..classes import NUM_CLASSES
+from .common import as_array as _as_array, call as _call
 
 _ATOL = 1e-6
 

@@ -14,6 +14,7 @@ fused into the explicit map) and ``ste_implicit`` (STE's views used to train the
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import multiprocessing
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -122,13 +123,24 @@ class SweepSpec:
         get_preset(self.preset)
 
     def cells(self) -> list[Cell]:
-        """All cells, the cross-validation ones last (they replay other cells' views)."""
+        """All cells, seed by seed (a partial sweep covers every scene and variant), the
+        cross-validation ones last (they replay other cells' views)."""
         ordered = sorted(self.variants, key=lambda v: v in CROSS_VALIDATION)
-        return [Cell(s, v, k) for v in ordered for s in self.scenes for k in self.seeds]
+        return sorted((Cell(s, v, k) for v in ordered for s in self.scenes for k in self.seeds),
+                      key=lambda c: (c.variant in CROSS_VALIDATION, c.seed))
 
 
-def check_sweep_folder(root: Path, spec: SweepSpec) -> None:
-    """Refuse a folder written by a sweep with another preset or budget (results must not mix)."""
+def source_hash() -> str:
+    """sha256 of the package's Python sources: which code produced a sweep's results."""
+    digest = hashlib.sha256()
+    for path in sorted(Path(__file__).resolve().parent.rglob("*.py")):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def check_sweep_folder(root: Path, spec: SweepSpec, log=print) -> None:
+    """Refuse a folder written by a sweep with another preset or budget (results must not mix); warn
+    when the package's code has changed since the folder's first cells were run."""
     root.mkdir(parents=True, exist_ok=True)
     path = root / SWEEP_FILE
     mine = {"preset": spec.preset, "budget": spec.budget, "preset_values": asdict(get_preset(spec.preset))}
@@ -137,8 +149,11 @@ def check_sweep_folder(root: Path, spec: SweepSpec) -> None:
         if {k: stored.get(k) for k in mine} != json.loads(json.dumps(mine)):
             raise ValueError(f"{root} holds results of a sweep with preset {stored.get('preset')!r} and budget "
                              f"{stored.get('budget')}; use another folder for preset {spec.preset!r}, budget {spec.budget}")
+        if stored.get("source_hash") != source_hash():
+            log(f"warning: {root} was started with stair_lite sources {stored.get('source_hash')}, these are "
+                f"{source_hash()}: finished cells are kept; delete them to recompute with this code")
     else:
-        write_json_atomically(path, mine)
+        write_json_atomically(path, {**mine, "source_hash": source_hash()})
 
 
 def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: bool = True, log=print) -> list[tuple[Cell, str]]:
@@ -146,7 +161,7 @@ def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: boo
     from tqdm import tqdm
 
     root = Path(root)
-    check_sweep_folder(root, spec)
+    check_sweep_folder(root, spec, log)
     cells = spec.cells()
     todo = [c for c in cells if cell_state(c, root, spec.budget) != "done"]
     for c in cells:

@@ -138,6 +138,9 @@ class Mission:
         # (the budget in the header is the current one: a resumed mission may have raised it)
 
     def _restore(self, trainer: Trainer, explicit: ExplicitMap | None, planner, sim: Simulator) -> list:
+        if not (self.out / CHECKPOINT_FILE).exists():
+            raise ResultsFolderError(f"{self.out} has {len(self.records)} steps but no {CHECKPOINT_FILE} to resume "
+                                     "from; pass --overwrite to start again")
         state = torch.load(self.out / CHECKPOINT_FILE, weights_only=False)
         if state["steps"] != len(self.records):
             raise ResultsFolderError(f"checkpoint in {self.out} is for step {state['steps']}, metrics for step "

@@ -8,7 +8,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 import trimesh
 from scipy.spatial import cKDTree
 from skimage.measure import marching_cubes

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from .classes import NUM_CLASSES
 from .config import RenderConfig, TrainConfig
 from .geometry import pixel_rays
 from .measurement import Measurement

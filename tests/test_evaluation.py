@@ -63,7 +63,7 @@ def test_skipping_empty_space_matches_the_exact_render():
     from stair_lite.field import SemanticField
     from stair_lite.geometry import fibonacci_hemisphere, view_to_pose
     from stair_lite.training import Trainer
-    from stair_lite.config import RenderConfig, TrainConfig, EvalConfig
+    from stair_lite.config import TrainConfig, EvalConfig
     from dataclasses import replace
 
     preset = replace(get_preset("lite"), field=FieldConfig(grid_resolution=32, rgb_hidden=(32, 32)),

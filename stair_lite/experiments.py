@@ -163,9 +163,10 @@ def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: boo
     root = Path(root)
     check_sweep_folder(root, spec, log)
     cells = spec.cells()
-    todo = [c for c in cells if cell_state(c, root, spec.budget) != "done"]
+    states = {c: cell_state(c, root, spec.budget) for c in cells}  # read every metrics file once
+    todo = [c for c in cells if states[c] != "done"]
     for c in cells:
-        if cell_state(c, root, spec.budget) == "corrupt":
+        if states[c] == "corrupt":
             log(f"corrupt results in {c.folder(root)}: the cell will be redone")
     outcomes = [(c, "finished before") for c in cells if c not in todo]
     bar = tqdm(total=len(cells), initial=len(outcomes), desc="cells", unit="cell", disable=not progress)

@@ -17,7 +17,7 @@ import csv
 import hashlib
 import json
 import multiprocessing
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -123,11 +123,11 @@ class SweepSpec:
         get_preset(self.preset)
 
     def cells(self) -> list[Cell]:
-        """All cells, seed by seed (a partial sweep covers every scene and variant), the
+        """All cells, seed by seed (a partial sweep covers every scene and variant); within a seed the
         cross-validation ones last (they replay other cells' views)."""
         ordered = sorted(self.variants, key=lambda v: v in CROSS_VALIDATION)
         return sorted((Cell(s, v, k) for v in ordered for s in self.scenes for k in self.seeds),
-                      key=lambda c: (c.variant in CROSS_VALIDATION, c.seed))
+                      key=lambda c: (c.seed, c.variant in CROSS_VALIDATION))
 
 
 def source_hash() -> str:
@@ -156,35 +156,61 @@ def check_sweep_folder(root: Path, spec: SweepSpec, log=print) -> None:
         write_json_atomically(path, {**mine, "source_hash": source_hash()})
 
 
+def replay_source(cell: Cell) -> Cell | None:
+    """The cell whose views a cross-validation cell replays (None for every other cell)."""
+    return Cell(cell.scene, CROSS_VALIDATION[cell.variant], cell.seed) if cell.variant in CROSS_VALIDATION else None
+
+
 def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: bool = True, log=print) -> list[tuple[Cell, str]]:
-    """Run every unfinished cell (in ``workers`` spawned processes); returns what happened to each."""
+    """Run every unfinished cell (in ``workers`` spawned processes); returns what happened to each.
+
+    A cross-validation cell starts as soon as the cell it replays has finished, so a sweep stopped
+    early holds whole seeds of every variant."""
     from tqdm import tqdm
 
     root = Path(root)
     check_sweep_folder(root, spec, log)
     cells = spec.cells()
     states = {c: cell_state(c, root, spec.budget) for c in cells}  # read every metrics file once
-    todo = [c for c in cells if states[c] != "done"]
+    finished = {c for c in cells if states[c] == "done"}
     for c in cells:
         if states[c] == "corrupt":
             log(f"corrupt results in {c.folder(root)}: the cell will be redone")
-    outcomes = [(c, "finished before") for c in cells if c not in todo]
+        source = replay_source(c)
+        if source and source not in states:  # replays a cell this sweep does not run: it must be on disk
+            if cell_state(source, root, spec.budget) != "done":
+                raise ValueError(f"{c.variant} replays the views of {source.variant}, which this sweep neither runs "
+                                 f"nor finds finished in {source.folder(root)}; add {source.variant} to the planners")
+            finished.add(source)
+    outcomes = [(c, "finished before") for c in cells if states[c] == "done"]
+    waiting = [c for c in cells if states[c] != "done"]
+
+    def release() -> list[Cell]:
+        """Unfinished cells whose replay source (if any) has finished, in sweep order."""
+        ready = [c for c in waiting if replay_source(c) is None or replay_source(c) in finished]
+        for c in ready:
+            waiting.remove(c)
+        return ready
+
     bar = tqdm(total=len(cells), initial=len(outcomes), desc="cells", unit="cell", disable=not progress)
-    waves = [[c for c in todo if c.variant not in CROSS_VALIDATION], [c for c in todo if c.variant in CROSS_VALIDATION]]
-    threads = 1 if workers > 1 else None
-    for wave in waves:
-        if not wave:
-            continue
-        if workers <= 1:
-            for c in wave:
-                outcomes.append(run_cell(c, str(root), spec.preset, spec.budget))
-                bar.update(1)
-            continue
+
+    def done(outcome: tuple[Cell, str]) -> None:
+        outcomes.append(outcome)
+        finished.add(outcome[0])
+        bar.update(1)
+
+    if workers <= 1:
+        while ready := release():
+            for c in ready:
+                done(run_cell(c, str(root), spec.preset, spec.budget))
+    else:
         with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = [pool.submit(run_cell, c, str(root), spec.preset, spec.budget, threads) for c in wave]
-            for future in as_completed(futures):
-                outcomes.append(future.result())
-                bar.update(1)
+            running = {pool.submit(run_cell, c, str(root), spec.preset, spec.budget, 1) for c in release()}
+            while running:
+                complete, running = wait(running, return_when=FIRST_COMPLETED)
+                for future in complete:
+                    done(future.result())
+                running |= {pool.submit(run_cell, c, str(root), spec.preset, spec.budget, 1) for c in release()}
     bar.close()
     return outcomes
 

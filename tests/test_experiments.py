@@ -54,3 +54,23 @@ def test_results_folder_of_another_configuration_is_refused(tmp_path):
 def test_bad_sweep_settings_are_named(kw, match):
     with pytest.raises(ValueError, match=match):
         spec(**kw)
+
+
+def test_cells_run_seed_by_seed_with_replays_after_their_source():
+    cells = spec(variants=("ste_implicit", "uniform", "ste"), seeds=(0, 1)).cells()
+    assert [c.seed for c in cells] == [0, 0, 0, 1, 1, 1]
+    for k in (0, 1):
+        order = [c.variant for c in cells if c.seed == k]
+        assert order.index("ste") < order.index("ste_implicit")
+
+
+def test_parallel_sweep_starts_a_replay_once_its_source_is_done(tmp_path):
+    outcomes = run_sweep(spec(variants=("ste", "ste_implicit")), tmp_path, workers=2, progress=False)
+    assert [(c.variant, o) for c, o in outcomes] == [("ste", "ran"), ("ste_implicit", "ran")]
+    rows = collect(tmp_path)
+    assert len(rows) == 4
+
+
+def test_replay_without_its_source_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="replays the views of stair"):
+        run_sweep(spec(variants=("stair_explicit",)), tmp_path, progress=False)

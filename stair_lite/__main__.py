@@ -6,6 +6,7 @@
   run      one active reconstruction mission (planner, scene, seed) with per-step metrics
   sweep    missions over scenes x planner variants x seeds (resumable), then the results table and plots
   report   the results table, curves and summary of a sweep folder
+  claims   the paper's three claims, checked against a sweep (and an ablation) folder, as Markdown
 """
 from __future__ import annotations
 
@@ -58,7 +59,7 @@ def _cmd_fit(args):
 
     import numpy as np
 
-    from .config import get_preset
+    from .config import check_device, get_preset
     from .evaluation import Evaluator
     from .field import SemanticField
     from .geometry import fibonacci_hemisphere, view_to_pose
@@ -78,7 +79,7 @@ def _cmd_fit(args):
     scene = load_scene(args.scene)
     targets = scene.check_targets(args.targets.split(",") if args.targets else scene.targets)
     sim = Simulator(scene)
-    field = SemanticField(preset.field, seed=args.seed)
+    field = SemanticField(preset.field, seed=args.seed).to(check_device(args.device))
     trainer = Trainer(field, preset.train, preset.render, seed=args.seed)
     evaluator = Evaluator(sim, targets, preset, seed=args.seed)
     views = fibonacci_hemisphere(args.views, azimuth_offset=0.3)
@@ -116,7 +117,7 @@ def _cmd_run(args):
     config = MissionConfig(scene=args.scene, planner=args.planner, seed=args.seed, preset=args.preset,
                            targets=tuple(args.targets.split(",")) if args.targets else None,
                            budget=args.budget, epsilon=args.epsilon, mapper=args.mapper, replay=args.replay)
-    mission = Mission(config, out=args.out, resume=args.resume, overwrite=args.overwrite)
+    mission = Mission(config, out=args.out, resume=args.resume, overwrite=args.overwrite, device=args.device)
     out = Path(args.out)
     done = len(mission.records)
     print(f"mission: scene {config.scene}, targets {', '.join(CLASS_NAMES[t] for t in mission.targets)}, planner "
@@ -176,7 +177,7 @@ def _cmd_sweep(args):
           f"preset {args.preset}, {args.workers} worker(s), results in {args.out}")
     start = time.perf_counter()
     try:
-        outcomes = run_sweep(spec, args.out, workers=args.workers, progress=not args.quiet)
+        outcomes = run_sweep(spec, args.out, workers=args.workers, progress=not args.quiet, device=args.device)
     except KeyboardInterrupt:
         print("\ninterrupted: finished cells are kept; run the same command again to continue", file=sys.stderr)
         return 130
@@ -215,6 +216,20 @@ def _cmd_report(args):
     return 0
 
 
+def _cmd_claims(args):
+    from .claims import markdown_report
+    from .experiments import collect
+
+    rows = collect(args.results)
+    if not rows:
+        raise ValueError(f"no finished mission results under {args.results}")
+    ablation = collect(args.ablation) if args.ablation else None
+    if args.ablation and not ablation:
+        raise ValueError(f"no finished mission results under {args.ablation}")
+    print(markdown_report(rows, ablation))
+    return 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m stair_lite", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -234,6 +249,7 @@ def main(argv=None):
     p.add_argument("--rays", type=int, default=None, help="override new and replay rays per iteration")
     p.add_argument("--eval-preset", default=None, choices=["lite", "paper"], help="evaluate with another preset's protocol")
     p.add_argument("--out", default=None, help="folder for the target mesh (PLY)")
+    p.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")
     p.set_defaults(func=_cmd_fit)
     p = sub.add_parser("run", help="run one active reconstruction mission")
     p.add_argument("--scene", default="scene1")
@@ -249,6 +265,7 @@ def main(argv=None):
     p.add_argument("--resume", action="store_true", help="continue a mission found in --out")
     p.add_argument("--overwrite", action="store_true", help="replace the results found in --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser("sweep", help="missions over scenes x planner variants x seeds")
     p.add_argument("--scenes", default="all", help="'all' (scene1-4) or comma-separated scene names")
@@ -260,10 +277,15 @@ def main(argv=None):
     p.add_argument("--workers", type=int, default=1, help="parallel worker processes (spawned)")
     p.add_argument("--out", default="runs/sweep")
     p.add_argument("--quiet", action="store_true")
+    p.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")
     p.set_defaults(func=_cmd_sweep)
     p = sub.add_parser("report", help="results table, curves and summary of a sweep folder")
     p.add_argument("--results", default="runs/sweep")
     p.set_defaults(func=_cmd_report)
+    p = sub.add_parser("claims", help="the paper's three claims checked against stored results (Markdown)")
+    p.add_argument("--results", default="data/results/sweep_lite")
+    p.add_argument("--ablation", default=None, help="an epsilon-ablation sweep folder (claim iii)")
+    p.set_defaults(func=_cmd_claims)
     args = parser.parse_args(argv)
     try:
         return args.func(args) or 0

@@ -135,3 +135,18 @@ def get_preset(name: str = "lite", **overrides) -> Preset:
     if name not in PRESETS:
         raise ValueError(f"unknown preset {name!r}; choose one of {sorted(PRESETS)}")
     return replace(PRESETS[name], **overrides)
+
+
+def check_device(name: str):
+    """A torch device by name ("cpu", "cuda", "cuda:1"); a clear error when it does not exist here."""
+    import torch
+
+    try:
+        device = torch.device(name)
+    except (RuntimeError, TypeError) as err:
+        raise ValueError(f"unknown device {name!r}; use 'cpu' or 'cuda' ({err})") from None
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError(f"device {name!r} asked for, but torch {torch.__version__} sees no CUDA GPU here; use 'cpu'")
+    if device.type not in ("cpu", "cuda"):
+        raise ValueError(f"device {name!r}: only 'cpu' and 'cuda' are supported")
+    return device

@@ -32,6 +32,7 @@ CROSS_VALIDATION = {"stair_explicit": "stair", "ste_implicit": "ste"}  # variant
 ALL_VARIANTS = BASE_VARIANTS + tuple(CROSS_VALIDATION)
 PAPER_SCENES = ("scene1", "scene2", "scene3", "scene4")
 SWEEP_FILE = "sweep.json"
+RESULTS_DIR = Path(__file__).resolve().parent.parent / "data" / "results"  # the stored sweeps
 TABLE_COLUMNS = ("scene", "variant", "seed", "step", "psnr", "precision", "completeness", "f1", "chamfer",
                  "utility", "exploitation", "exploration", "loss", "elevation_deg", "azimuth_deg",
                  "time_plan_s", "time_train_s", "time_evaluate_s")
@@ -84,7 +85,8 @@ def cell_state(cell: Cell, root: Path, budget: int) -> str:
     return "done" if len(steps) >= budget else "partial"
 
 
-def run_cell(cell: Cell, root: str, preset: str, budget: int, threads: int | None = None) -> tuple[Cell, str]:
+def run_cell(cell: Cell, root: str, preset: str, budget: int, threads: int | None = None,
+             device: str = "cpu") -> tuple[Cell, str]:
     """Run (or resume) one cell; a corrupt or unresumable cell is redone from scratch."""
     import torch
 
@@ -94,10 +96,10 @@ def run_cell(cell: Cell, root: str, preset: str, budget: int, threads: int | Non
     config = mission_config(cell, root, preset, budget)
     state = cell_state(cell, root, budget)
     try:
-        Mission(config, out=cell.folder(root), resume=state == "partial", overwrite=state == "corrupt").run()
+        Mission(config, out=cell.folder(root), resume=state == "partial", overwrite=state == "corrupt", device=device).run()
         return cell, "redone (was corrupt)" if state == "corrupt" else "ran"
     except ResultsFolderError as err:  # an unusable partial result: start the cell again
-        Mission(config, out=cell.folder(root), overwrite=True).run()
+        Mission(config, out=cell.folder(root), overwrite=True, device=device).run()
         return cell, f"redone ({err})"
 
 
@@ -161,8 +163,10 @@ def replay_source(cell: Cell) -> Cell | None:
     return Cell(cell.scene, CROSS_VALIDATION[cell.variant], cell.seed) if cell.variant in CROSS_VALIDATION else None
 
 
-def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: bool = True, log=print) -> list[tuple[Cell, str]]:
-    """Run every unfinished cell (in ``workers`` spawned processes); returns what happened to each.
+def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: bool = True, log=print,
+              device: str = "cpu") -> list[tuple[Cell, str]]:
+    """Run every unfinished cell (in ``workers`` spawned processes, each mission on ``device``); returns
+    what happened to each.
 
     A cross-validation cell starts as soon as the cell it replays has finished, so a sweep stopped
     early holds whole seeds of every variant."""
@@ -202,28 +206,34 @@ def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: boo
     if workers <= 1:
         while ready := release():
             for c in ready:
-                done(run_cell(c, str(root), spec.preset, spec.budget))
+                done(run_cell(c, str(root), spec.preset, spec.budget, device=device))
     else:
         with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            running = {pool.submit(run_cell, c, str(root), spec.preset, spec.budget, 1) for c in release()}
+            running = {pool.submit(run_cell, c, str(root), spec.preset, spec.budget, 1, device) for c in release()}
             while running:
                 complete, running = wait(running, return_when=FIRST_COMPLETED)
                 for future in complete:
                     done(future.result())
-                running |= {pool.submit(run_cell, c, str(root), spec.preset, spec.budget, 1) for c in release()}
+                running |= {pool.submit(run_cell, c, str(root), spec.preset, spec.budget, 1, device) for c in release()}
     bar.close()
     return outcomes
 
 
 def collect(root: str | Path, log=print) -> list[dict]:
-    """One row per (scene, variant, seed, step) from every readable cell under ``root``."""
+    """One row per (scene, variant, seed, step) from every finished, readable cell under ``root``
+    (a cell still running, with fewer steps than the sweep's budget, is left out)."""
     rows = []
+    sweep_file = Path(root) / SWEEP_FILE
+    budget = json.loads(sweep_file.read_text())["budget"] if sweep_file.exists() else 1
     for path in sorted(Path(root).glob(f"*/*/seed*/{METRICS_FILE}")):
         scene, variant, seed = path.parts[-4], path.parts[-3], int(path.parts[-2][4:])
         try:
             steps = json.loads(path.read_text())["steps"]
         except (json.JSONDecodeError, KeyError, UnicodeDecodeError) as err:
             log(f"skipping unreadable {path}: {err}")
+            continue
+        if len(steps) < budget:
+            log(f"skipping unfinished {path} ({len(steps)} of {budget} steps)")
             continue
         for r in steps:
             rows.append({

@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from .classes import CLASS_NAMES
-from .config import Preset, get_preset
+from .config import Preset, check_device, get_preset
 from .evaluation import Evaluator
 from .field import SemanticField
 from .geometry import TOP_VIEW, view_to_pose
@@ -76,8 +76,9 @@ class Mission:
     """One active reconstruction mission. ``run()`` executes (or resumes) it and returns the step records."""
 
     def __init__(self, config: MissionConfig, out: str | Path | None = None, preset: Preset | None = None,
-                 resume: bool = False, overwrite: bool = False):
+                 resume: bool = False, overwrite: bool = False, device: str = "cpu"):
         self.config = config
+        self.device = check_device(device)  # where the field and the voxel map live (not part of the config)
         self.preset = preset or get_preset(config.preset)
         self.scene = load_scene(config.scene)
         self.targets = self.scene.check_targets(config.targets if config.targets else self.scene.targets)
@@ -141,7 +142,7 @@ class Mission:
         if not (self.out / CHECKPOINT_FILE).exists():
             raise ResultsFolderError(f"{self.out} has {len(self.records)} steps but no {CHECKPOINT_FILE} to resume "
                                      "from; pass --overwrite to start again")
-        state = torch.load(self.out / CHECKPOINT_FILE, weights_only=False)
+        state = torch.load(self.out / CHECKPOINT_FILE, weights_only=False, map_location=self.device)
         if state["steps"] != len(self.records):
             raise ResultsFolderError(f"checkpoint in {self.out} is for step {state['steps']}, metrics for step "
                                      f"{len(self.records)}; pass --overwrite to start again")
@@ -174,9 +175,9 @@ class Mission:
         """Run the remaining steps; ``on_step(record)`` is called after each (e.g. to print a table row)."""
         cfg, preset = self.config, self.preset
         sim = Simulator(self.scene)
-        field = SemanticField(preset.field, seed=cfg.seed)
+        field = SemanticField(preset.field, seed=cfg.seed).to(self.device)
         trainer = Trainer(field, preset.train, preset.render, seed=cfg.seed)
-        explicit = ExplicitMap(preset.explicit) if cfg.mapper == "explicit" or cfg.planner == "ste" else None
+        explicit = ExplicitMap(preset.explicit, device=self.device) if cfg.mapper == "explicit" or cfg.planner == "ste" else None
         train_field = cfg.mapper == "implicit" or cfg.planner in ("stair", "exploration")
         planner = self._make_planner()
         evaluator = Evaluator(sim, self.targets, preset, seed=cfg.seed)

@@ -74,3 +74,14 @@ def test_parallel_sweep_starts_a_replay_once_its_source_is_done(tmp_path):
 def test_replay_without_its_source_is_refused(tmp_path):
     with pytest.raises(ValueError, match="replays the views of stair"):
         run_sweep(spec(variants=("stair_explicit",)), tmp_path, progress=False)
+
+
+def test_collect_leaves_out_unfinished_cells(tmp_path):
+    run_sweep(spec(variants=("uniform",)), tmp_path, progress=False)
+    path = Cell("scene1", "uniform", 0).folder(tmp_path) / "metrics.json"
+    stored = json.loads(path.read_text())
+    stored["steps"] = stored["steps"][:1]
+    path.write_text(json.dumps(stored))
+    messages = []
+    assert collect(tmp_path, log=messages.append) == []
+    assert any("unfinished" in m for m in messages)

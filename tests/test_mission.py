@@ -90,3 +90,23 @@ def test_replay_needs_a_file_and_enough_views(tmp_path):
     run(tmp_path, "short", budget=2, planner="uniform")
     with pytest.raises(ValueError, match="fewer than the budget"):
         Mission(MissionConfig(planner="replay", replay=str(tmp_path / "short" / "metrics.json"), budget=3), preset=TINY).run()
+
+
+@pytest.mark.parametrize("device,match", [("tpu", "unknown device|only 'cpu' and 'cuda'"), ("not a device", "unknown device")])
+def test_bad_devices_are_named(device, match):
+    with pytest.raises(ValueError, match=match):
+        Mission(MissionConfig(preset="smoke", budget=1), device=device)
+
+
+@pytest.mark.skipif(__import__("torch").cuda.is_available(), reason="this machine has a GPU")
+def test_asking_for_a_missing_gpu_is_a_clear_error():
+    with pytest.raises(ValueError, match="sees no CUDA GPU"):
+        Mission(MissionConfig(preset="smoke", budget=1), device="cuda")
+
+
+@pytest.mark.skipif(not __import__("torch").cuda.is_available(), reason="needs a CUDA GPU")
+@pytest.mark.parametrize("planner", ["stair", "ste"])
+def test_a_mission_runs_on_the_gpu(tmp_path, planner):
+    records = Mission(MissionConfig(planner=planner, preset="smoke", budget=2, mapper="explicit" if planner == "ste" else "implicit"),
+                      out=tmp_path, device="cuda").run()
+    assert len(records) == 2 and np.isfinite(records[-1]["psnr"])

@@ -1,0 +1,192 @@
+"""The paper's three claims (Sec. I), checked against stored sweep results.
+
+Introduced in notebook 06. Every comparison is between two variants' *per-seed* scores, a metric's
+mean over the 10 steps (the area under its curve divided by the steps; it rewards reaching a good
+reconstruction early), tested with Welch's two-sided t-test at ``ALPHA``:
+
+* claim (i): STAIR against the strongest of the implicit baselines (exploration, fixed, max_distance,
+  uniform), per scene and metric;
+* claim (ii): STAIR against STE, split as the paper splits it: mapping (STE's views, implicit vs
+  explicit map: ``ste_implicit`` vs ``ste``) and planning (the explicit map, STAIR's vs STE's views:
+  ``stair_explicit`` vs ``ste``);
+* claim (iii): on the two-chair scene, epsilon > 0 against exploitation alone (epsilon = 0), plus
+  whether each mission ever saw the occluded chair.
+
+A verdict is "holds" (the claimed side is better, p < ALPHA), "reversed" (the other side is better,
+p < ALPHA) or "not significant".
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import stats
+
+from .geometry import Intrinsics
+from .scenes import build_scene, load_scene_spec
+from .simulator import Simulator
+
+ALPHA = 0.05
+IMPLICIT_BASELINES = ("exploration", "fixed", "max_distance", "uniform")
+METRICS = ("psnr", "f1")
+
+
+def per_seed_scores(rows: list[dict], scene: str, variant: str, metric: str) -> np.ndarray:
+    """One number per seed: the metric's mean over the mission's steps."""
+    seeds = sorted({r["seed"] for r in rows if (r["scene"], r["variant"]) == (scene, variant)})
+    if not seeds:
+        raise ValueError(f"no results for variant {variant!r} on scene {scene!r}")
+    return np.array([np.mean([r[metric] for r in rows if (r["scene"], r["variant"], r["seed"]) == (scene, variant, s)])
+                     for s in seeds])
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Is ``claimed`` better than ``other`` on ``metric`` in ``scene``? (per-seed scores of each)"""
+
+    scene: str
+    metric: str
+    claimed: str
+    other: str
+    claimed_scores: np.ndarray
+    other_scores: np.ndarray
+
+    @property
+    def difference(self) -> float:
+        return float(self.claimed_scores.mean() - self.other_scores.mean())
+
+    @property
+    def p_value(self) -> float:
+        """Welch's two-sided t-test; NaN with fewer than two seeds on a side or no spread at all."""
+        a, b = self.claimed_scores, self.other_scores
+        if min(len(a), len(b)) < 2 or (np.ptp(a) == 0 and np.ptp(b) == 0):
+            return float("nan")
+        return float(stats.ttest_ind(a, b, equal_var=False).pvalue)
+
+    @property
+    def verdict(self) -> str:
+        if not self.p_value < ALPHA:
+            return "not significant"
+        return "holds" if self.difference > 0 else "reversed"
+
+    def describe(self) -> str:
+        a, b = self.claimed_scores, self.other_scores
+        digits = 2 if self.metric == "psnr" else 3
+        return (f"{self.scene} {self.metric}: {self.claimed} {a.mean():.{digits}f} +- {a.std():.{digits}f} vs "
+                f"{self.other} {b.mean():.{digits}f} +- {b.std():.{digits}f} (n = {len(a)}/{len(b)}, "
+                f"p = {self.p_value:.3f}): {self.verdict}")
+
+
+def compare(rows, scene, metric, claimed, other) -> Comparison:
+    return Comparison(scene, metric, claimed, other, per_seed_scores(rows, scene, claimed, metric),
+                      per_seed_scores(rows, scene, other, metric))
+
+
+def scenes_of(rows) -> list[str]:
+    return sorted({r["scene"] for r in rows})
+
+
+def claim_one(rows) -> list[Comparison]:
+    """Claim (i): per scene and metric, STAIR against the implicit baseline with the best mean."""
+    out = []
+    for scene in scenes_of(rows):
+        for metric in METRICS:
+            strongest = max(IMPLICIT_BASELINES, key=lambda v: per_seed_scores(rows, scene, v, metric).mean())
+            out.append(compare(rows, scene, metric, "stair", strongest))
+    return out
+
+
+def claim_two(rows) -> dict[str, list[Comparison]]:
+    """Claim (ii): STAIR vs STE overall, and the paper's split into mapping and planning."""
+    parts = {"overall": ("stair", "ste"), "mapping": ("ste_implicit", "ste"), "planning": ("stair_explicit", "ste")}
+    return {name: [compare(rows, scene, metric, a, b) for scene in scenes_of(rows) for metric in METRICS]
+            for name, (a, b) in parts.items()}
+
+
+def claim_three(rows, exploit_only: str = "stair_eps0") -> list[Comparison]:
+    """Claim (iii): every epsilon > 0 against exploitation alone, on each metric."""
+    (scene,) = scenes_of(rows)
+    others = sorted({r["variant"] for r in rows} - {exploit_only}, key=lambda v: float(v[len("stair_eps"):]))
+    return [compare(rows, scene, metric, v, exploit_only) for v in others for metric in METRICS]
+
+
+def object_pixels(scene_name: str, index: int, views: np.ndarray, intrinsics: Intrinsics | None = None) -> np.ndarray:
+    """How many pixels of each view (elevation, azimuth) see object ``index`` of a scene: the pixels
+    whose depth changes when that object is removed from the scene."""
+    spec = load_scene_spec(scene_name)
+    if not 0 <= index < len(spec.objects):
+        raise ValueError(f"scene {scene_name!r} has objects 0..{len(spec.objects) - 1}, got index {index}")
+    intrinsics = intrinsics or Intrinsics.from_fov(100, 100)
+    without = replace(spec, objects=spec.objects[:index] + spec.objects[index + 1:])
+    full, removed = Simulator(build_scene(spec), intrinsics), Simulator(build_scene(without), intrinsics)
+    counts = []
+    for elevation, azimuth in np.asarray(views, dtype=float).reshape(-1, 2):
+        a, b = full.render_view(elevation, azimuth).depth, removed.render_view(elevation, azimuth).depth
+        counts.append(int((np.abs(a - b) > 1e-4).sum()))
+    return np.array(counts)
+
+
+def tally(comparisons: list[Comparison]) -> dict[str, int]:
+    """How many comparisons got each verdict."""
+    verdicts = [c.verdict for c in comparisons]
+    return {v: verdicts.count(v) for v in ("holds", "not significant", "reversed")}
+
+
+HIDDEN_CHAIR = ("ablation_two_chairs", 2)  # the ablation scene and the index of its occluded chair (under the table)
+MIN_PIXELS = 20  # of 100 x 100: "the mission saw the object" (a sliver at a silhouette does not count)
+
+
+def first_sight(rows, scene_object=HIDDEN_CHAIR, min_pixels: int = MIN_PIXELS) -> dict[tuple[str, int], int | None]:
+    """(variant, seed) -> the first step whose view shows at least ``min_pixels`` of the object (None: never)."""
+    scene, index = scene_object
+    out = {}
+    for variant, seed in sorted({(r["variant"], int(r["seed"])) for r in rows if r["scene"] == scene}):
+        mine = sorted((r for r in rows if (r["scene"], r["variant"], r["seed"]) == (scene, variant, seed)),
+                      key=lambda r: r["step"])
+        views = np.radians([[r["elevation_deg"], r["azimuth_deg"]] for r in mine])
+        seen = np.flatnonzero(object_pixels(scene, index, views) >= min_pixels)
+        out[(variant, seed)] = int(mine[seen[0]]["step"]) if len(seen) else None
+    return out
+
+
+def _table(comparisons: list[Comparison]) -> list[str]:
+    lines = ["| scene | metric | claimed side | other side | difference | p | verdict |", "|---|---|---|---|---|---|---|"]
+    for c in comparisons:
+        a, b, d = c.claimed_scores, c.other_scores, (2 if c.metric == "psnr" else 3)
+        lines.append(f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} ± {a.std():.{d}f} (n={len(a)}) | "
+                     f"{c.other} {b.mean():.{d}f} ± {b.std():.{d}f} (n={len(b)}) | {c.difference:+.{d}f} | "
+                     f"{c.p_value:.3f} | {c.verdict} |")
+    return lines
+
+
+def _count(comparisons: list[Comparison]) -> str:
+    t = tally(comparisons)
+    return f"holds in {t['holds']} of {len(comparisons)}, reversed in {t['reversed']}, not significant in {t['not significant']}"
+
+
+def markdown_report(rows, ablation_rows=None) -> str:
+    """The claim-by-claim verdict as Markdown, computed from a sweep's rows (and the ablation's)."""
+    out = ["Scores: each seed's mean over the 10 steps; ± is the std over seeds; p from Welch's t-test; "
+           f"a verdict needs p < {ALPHA}.", "",
+           "### Claim (i): STAIR beats the implicit baselines that ignore semantics", "",
+           "STAIR against the strongest baseline (highest mean) per scene and metric: " + _count(one := claim_one(rows)) + ".",
+           "", *_table(one), ""]
+    two = claim_two(rows)
+    out += ["### Claim (ii): STAIR beats the explicit STE, in mapping and in planning", ""]
+    for name, explain in (("overall", "STAIR vs STE"), ("mapping", "the same STE views on the implicit vs the explicit map"),
+                          ("planning", "the explicit map fed STAIR's vs STE's views")):
+        out += [f"**{name}** ({explain}): {_count(two[name])}.", "", *_table(two[name]), ""]
+    if ablation_rows:
+        three = claim_three(ablation_rows)
+        out += ["### Claim (iii): exploration is needed to find an occluded target", "",
+                "Each epsilon > 0 against exploitation alone (epsilon = 0) on the two-chair scene: " + _count(three) + ".",
+                "", *_table(three), ""]
+        sight = first_sight(ablation_rows)
+        out += ["Missions that saw the occluded chair (at least "
+                f"{MIN_PIXELS} of 100 x 100 pixels in some view), and the first step they did:", ""]
+        for variant in sorted({v for v, _ in sight}, key=lambda v: float(v[len("stair_eps"):])):
+            steps = [sight[k] for k in sorted(sight) if k[0] == variant]
+            found = [s for s in steps if s is not None]
+            out.append(f"- {variant}: {len(found)} of {len(steps)} missions; first sight at steps {found}")
+        out.append("")
+    return "\n".join(out)

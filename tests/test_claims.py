@@ -1,0 +1,71 @@
+"""Claim verdicts from results tables, and the hidden-object pixel count."""
+import numpy as np
+import pytest
+
+from stair_lite.claims import (Comparison, claim_one, claim_three, claim_two, markdown_report, object_pixels,
+                               per_seed_scores, tally)
+from stair_lite.geometry import TOP_VIEW
+
+
+def fake_rows(means: dict, seeds=5, steps=3, noise=0.1, scene="scene1", seed=0):
+    """Rows whose per-seed mean over steps is ``mean + noise * N(0, 1)`` for each variant."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for variant, mean in means.items():
+        for k in range(seeds):
+            level = mean + noise * rng.normal()
+            for step in range(1, steps + 1):
+                rows.append({"scene": scene, "variant": variant, "seed": k, "step": step,
+                             "psnr": level + (step - 2) * 0.5, "f1": level / 40,
+                             "elevation_deg": 90.0 if step == 1 else 10.0, "azimuth_deg": 230.0 * step})
+    return rows
+
+
+def test_per_seed_scores_are_means_over_steps():
+    rows = fake_rows({"stair": 20.0}, seeds=2, noise=0.0)
+    assert np.allclose(per_seed_scores(rows, "scene1", "stair", "psnr"), [20.0, 20.0])
+    with pytest.raises(ValueError, match="no results for variant 'ste'"):
+        per_seed_scores(rows, "scene1", "ste", "psnr")
+
+
+def test_verdicts_follow_the_welch_test():
+    a, b = np.array([20.0, 20.2, 19.9, 20.1]), np.array([18.0, 18.3, 17.9, 18.1])
+    assert Comparison("s", "psnr", "x", "y", a, b).verdict == "holds"
+    assert Comparison("s", "psnr", "y", "x", b, a).verdict == "reversed"
+    close = Comparison("s", "psnr", "x", "y", a, a + 0.01)
+    assert close.verdict == "not significant" and close.p_value > 0.5
+    assert np.isnan(Comparison("s", "psnr", "x", "y", a[:1], b).p_value)  # one seed: no test
+    assert Comparison("s", "psnr", "x", "y", a[:1], b).verdict == "not significant"
+
+
+def test_claim_one_compares_with_the_strongest_baseline():
+    rows = fake_rows({"stair": 20.0, "exploration": 18.0, "fixed": 19.0, "max_distance": 15.0, "uniform": 10.0})
+    comparisons = claim_one(rows)
+    assert [c.other for c in comparisons] == ["fixed", "fixed"]
+    assert tally(comparisons) == {"holds": 2, "not significant": 0, "reversed": 0}
+
+
+def test_claim_two_splits_mapping_and_planning():
+    rows = fake_rows({"stair": 20.0, "ste": 18.0, "stair_explicit": 17.0, "ste_implicit": 18.0})
+    two = claim_two(rows)
+    assert {c.verdict for c in two["overall"]} == {"holds"}
+    assert {c.verdict for c in two["planning"]} == {"reversed"}
+    assert {c.verdict for c in two["mapping"]} == {"not significant"}
+
+
+def test_claim_three_and_the_report():
+    rows = fake_rows({"stair_eps0": 10.0, "stair_eps0.2": 14.0, "stair_eps0.8": 10.05}, scene="ablation_two_chairs")
+    three = claim_three(rows)
+    assert [c.claimed for c in three] == ["stair_eps0.2", "stair_eps0.2", "stair_eps0.8", "stair_eps0.8"]
+    assert [c.verdict for c in three[:2]] == ["holds", "holds"]
+    sweep = fake_rows({"stair": 20.0, "exploration": 18.0, "fixed": 19.0, "max_distance": 15.0, "uniform": 10.0,
+                       "ste": 18.0, "stair_explicit": 17.0, "ste_implicit": 18.0})
+    report = markdown_report(sweep, rows)
+    assert "holds in 2 of 2" in report and "Claim (iii)" in report and "missions that saw" in report.lower()
+
+
+def test_object_pixels_sees_the_hidden_chair_only_from_the_side():
+    counts = object_pixels("ablation_two_chairs", 2, np.array([TOP_VIEW, (0.2, 4.0)]))
+    assert counts[0] == 0 and counts[1] > 50
+    with pytest.raises(ValueError, match="objects 0..5, got index 9"):
+        object_pixels("ablation_two_chairs", 9, np.array([TOP_VIEW]))

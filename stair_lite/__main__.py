@@ -187,6 +187,10 @@ def _cmd_sweep(args):
     return _cmd_report(args)
 
 
+def _warn(message: str) -> None:
+    print(message, file=sys.stderr)
+
+
 def _cmd_report(args):
     import matplotlib
 
@@ -197,7 +201,7 @@ def _cmd_report(args):
     from .plotting import plot_sweep_curves
 
     root = Path(args.results)
-    rows = collect(root)
+    rows = collect(root, log=_warn)
     if not rows:
         raise ValueError(f"no finished mission results under {root}")
     table = write_table(rows, root / "results.csv")
@@ -220,10 +224,10 @@ def _cmd_claims(args):
     from .claims import markdown_report
     from .experiments import collect
 
-    rows = collect(args.results)
+    rows = collect(args.results, log=_warn)
     if not rows:
         raise ValueError(f"no finished mission results under {args.results}")
-    ablation = collect(args.ablation) if args.ablation else None
+    ablation = collect(args.ablation, log=_warn) if args.ablation else None
     if args.ablation and not ablation:
         raise ValueError(f"no finished mission results under {args.ablation}")
     print(markdown_report(rows, ablation))

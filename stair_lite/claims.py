@@ -110,20 +110,38 @@ def claim_three(rows, exploit_only: str = "stair_eps0") -> list[Comparison]:
     return [compare(rows, scene, metric, v, exploit_only) for v in others for metric in METRICS]
 
 
+def _simulators(spec, kept_objects, intrinsics: Intrinsics) -> tuple[Simulator, Simulator]:
+    """Simulators of a scene spec as it is and with only ``kept_objects`` (the ground stays in both)."""
+    return (Simulator(build_scene(spec), intrinsics),
+            Simulator(build_scene(replace(spec, objects=tuple(kept_objects))), intrinsics))
+
+
 def object_pixels(scene_name: str, index: int, views: np.ndarray, intrinsics: Intrinsics | None = None) -> np.ndarray:
     """How many pixels of each view (elevation, azimuth) see object ``index`` of a scene: the pixels
     whose depth changes when that object is removed from the scene."""
     spec = load_scene_spec(scene_name)
     if not 0 <= index < len(spec.objects):
         raise ValueError(f"scene {scene_name!r} has objects 0..{len(spec.objects) - 1}, got index {index}")
-    intrinsics = intrinsics or Intrinsics.from_fov(100, 100)
-    without = replace(spec, objects=spec.objects[:index] + spec.objects[index + 1:])
-    full, removed = Simulator(build_scene(spec), intrinsics), Simulator(build_scene(without), intrinsics)
+    full, removed = _simulators(spec, spec.objects[:index] + spec.objects[index + 1:], intrinsics or Intrinsics.from_fov(100, 100))
     counts = []
     for elevation, azimuth in np.asarray(views, dtype=float).reshape(-1, 2):
         a, b = full.render_view(elevation, azimuth).depth, removed.render_view(elevation, azimuth).depth
         counts.append(int((np.abs(a - b) > 1e-4).sum()))
     return np.array(counts)
+
+
+def hidden_target_fraction(scene_name: str, views: np.ndarray, intrinsics: Intrinsics | None = None) -> float:
+    """Of the pixels that show a target when the target objects stand alone, the fraction that other
+    objects hide in the full scene, over the given views. The target-only ground truth (visible target
+    pixels) leaves these white, while a map's target-only render deletes the occluders and shows them."""
+    spec = load_scene_spec(scene_name)
+    targets = spec.targets
+    full, alone = _simulators(spec, [o for o in spec.objects if o.cls in targets], intrinsics or Intrinsics.from_fov(100, 100))
+    visible = total = 0
+    for elevation, azimuth in np.asarray(views, dtype=float).reshape(-1, 2):
+        visible += int(np.isin(full.render_view(elevation, azimuth).labels, targets).sum())
+        total += int(np.isin(alone.render_view(elevation, azimuth).labels, targets).sum())
+    return 1.0 - visible / total if total else 0.0
 
 
 def tally(comparisons: list[Comparison]) -> dict[str, int]:

@@ -2,9 +2,13 @@
 import numpy as np
 import pytest
 
-from stair_lite.claims import (Comparison, claim_one, claim_three, claim_two, markdown_report, object_pixels,
-                               per_seed_scores, tally)
-from stair_lite.geometry import TOP_VIEW
+from dataclasses import replace
+
+from stair_lite.claims import (Comparison, claim_one, claim_three, claim_two, hidden_target_fraction, markdown_report,
+                               object_pixels, per_seed_scores, tally)
+from stair_lite.geometry import TOP_VIEW, Intrinsics
+from stair_lite.scenes import build_scene, load_scene_spec, save_scene_spec
+from stair_lite.simulator import Simulator
 
 
 def fake_rows(means: dict, seeds=5, steps=3, noise=0.1, scene="scene1", seed=0):
@@ -69,3 +73,25 @@ def test_object_pixels_sees_the_hidden_chair_only_from_the_side():
     assert counts[0] == 0 and counts[1] > 50
     with pytest.raises(ValueError, match="objects 0..5, got index 9"):
         object_pixels("ablation_two_chairs", 9, np.array([TOP_VIEW]))
+
+
+def test_hidden_target_fraction_counts_the_chair_under_the_table():
+    """From the top, the ablation scene's chair under the table is hidden and the other chair is not:
+    the hidden fraction is the first chair's share of the two chairs' pixels, each rendered alone."""
+    spec = load_scene_spec("ablation_two_chairs")
+    k = Intrinsics.from_fov(100, 100)
+
+    def alone(index):
+        only = build_scene(replace(spec, objects=(spec.objects[index],)))
+        return int((Simulator(only, k).render_view(*TOP_VIEW).labels == spec.objects[index].cls).sum())
+
+    visible, hidden = alone(0), alone(2)
+    assert hidden > 50
+    assert hidden_target_fraction("ablation_two_chairs", np.array([TOP_VIEW]), k) == pytest.approx(hidden / (visible + hidden))
+
+
+def test_hidden_target_fraction_is_zero_without_other_objects(tmp_path):
+    spec = load_scene_spec("scene3")
+    only_targets = replace(spec, name="targets_only", objects=tuple(o for o in spec.objects if o.cls in spec.targets))
+    path = save_scene_spec(only_targets, tmp_path / "targets_only.json")
+    assert hidden_target_fraction(str(path), np.array([TOP_VIEW, (0.3, 1.0), (0.05, 4.0)])) == 0.0

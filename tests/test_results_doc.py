@@ -1,0 +1,15 @@
+"""RESULTS.md quotes the claim verdicts of the stored sweeps; they must be what the code computes now."""
+from pathlib import Path
+
+from stair_lite.claims import markdown_report
+from stair_lite.experiments import RESULTS_DIR, collect
+
+RESULTS_MD = Path(__file__).resolve().parents[1] / "RESULTS.md"
+BEGIN, END = "<!-- claims: generated", "<!-- claims: end -->"
+
+
+def test_results_md_quotes_the_computed_verdicts():
+    text = RESULTS_MD.read_text()
+    quoted = text[text.index(BEGIN):text.index(END)].split("\n", 1)[1].rstrip("\n")
+    computed = markdown_report(collect(RESULTS_DIR / "sweep_lite"), collect(RESULTS_DIR / "ablation_lite")).rstrip("\n")
+    assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite claims ...` between its markers"

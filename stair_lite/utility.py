@@ -1,11 +1,11 @@
-"""The semantic-targeted utility of a candidate view (paper Sec. III-C, Eqs. 10-14).
+"""The semantic-targeted utility of a candidate view (paper Sec. III-C, Eqs. 10-15).
 
 Introduced in notebook 04. For a view's rays with samples x_i:
   H_pt(x)  = -o ln o - (1 - o) ln(1 - o)                          (Eq. 10, nats)
   H_ray(r) = sum_i T(x_i) H_pt(x_i)                               (Eq. 11, transmittance-weighted)
   U_er(v)  = sum_rays H_ray                                        (Eq. 12, exploration)
-  U_et(v)  = sum_rays H_ray * [argmax S(r) in targets]             (Eq. 13, exploitation)
-  U(v)     = U_et(v) + epsilon * U_er(v)                           (Eq. 14)
+  U_et(v)  = sum_rays H_ray * [argmax S(r) in targets]             (Eqs. 13-14, exploitation; Eq. 14 is the mask)
+  U(v)     = U_et(v) + epsilon * U_er(v)                           (Eq. 15)
 
 Candidate views are rendered from a ``FieldSnapshot``: the field's occupancy, point entropy and
 class probabilities evaluated once per planning step on a lattice, then read by nearest-vertex
@@ -143,7 +143,7 @@ def score_views(
     source, views: np.ndarray, targets: tuple[int, ...], intrinsics: Intrinsics, n_samples: int,
     options: UtilityOptions = UtilityOptions(), chunk_views: int = 25,
 ) -> Scores:
-    """Eqs. 12-14 for every view (elevation, azimuth) of ``views``, rendered in chunks of views."""
+    """Eqs. 12-15 for every view (elevation, azimuth) of ``views``, rendered in chunks of views."""
     u_er, u_et = [], []
     for start in range(0, len(views), chunk_views):
         poses = [view_to_pose(el, az) for el, az in views[start : start + chunk_views]]

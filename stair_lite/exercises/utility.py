@@ -90,7 +90,7 @@ def _ray_entropy_reference_log(occ, log):
 
 
 # --------------------------------------------------------------------------------------------------
-# Exercise 2: the utility of views from their H_ray maps and rendered labels (Eqs. 12-14)
+# Exercise 2: the utility of views from their H_ray maps and rendered labels (Eqs. 12-15)
 # --------------------------------------------------------------------------------------------------
 def _utility_reference(h, labels, targets, epsilon):
     mask = np.isin(labels, targets)
@@ -118,7 +118,7 @@ def check_utility(utility, n_trials: int = 20, seed: int = 0) -> bool:
         n = hh * ww
         if _close(got, (1 - epsilon) * u_et + epsilon * u_er):
             hint = ("that is a convex mix (1 - eps) U_et + eps U_er (the same as U_et + eps * [sum over NON-target rays]): "
-                    "Eq. 14 is U_et + eps U_er, and U_er sums over ALL rays, target rays included")
+                    "Eq. 15 is U_et + eps U_er, and U_er sums over ALL rays, target rays included")
         elif len(targets) > 1 and _close(got, _utility_reference(h, labels, targets[:1], epsilon)[0]):
             hint = "with several target classes a ray counts if its label is ANY of them: np.isin(labels, targets)"
         elif _close(got, u_et) or _close(got, u_er):

@@ -197,6 +197,7 @@ def _cmd_report(args):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from .claims import metrics_of
     from .experiments import collect, summary, write_table
     from .plotting import plot_sweep_curves
 
@@ -205,8 +206,10 @@ def _cmd_report(args):
     if not rows:
         raise ValueError(f"no finished mission results under {root}")
     table = write_table(rows, root / "results.csv")
-    for metric, label in (("psnr", "target-only PSNR [dB]"), ("f1", "target mesh F1 (1 cm)")):
-        axes = plot_sweep_curves(rows, metric, ylabel=label)
+    labels = {"psnr": "target-only PSNR [dB]", "psnr_clean": "target-only PSNR, clean protocol [dB]",
+              "f1": "target mesh F1 (1 cm)"}
+    for metric in metrics_of(rows):
+        axes = plot_sweep_curves(rows, metric, ylabel=labels[metric])
         axes[0].figure.tight_layout()
         axes[0].figure.savefig(root / f"curves_{metric}.png", dpi=90)
     plt.close("all")
@@ -216,7 +219,7 @@ def _cmd_report(args):
         print(f"{e['scene']:10s} {e['variant']:16s} {e['seeds']:2d} {e['psnr_auc_mean']:13.2f} +- {e['psnr_auc_std']:4.2f} "
               f"{e['psnr_final_mean']:7.2f} +- {e['psnr_final_std']:4.2f} {e['f1_auc_mean']:11.3f} +- {e['f1_auc_std']:5.3f} "
               f"{e['f1_final_mean']:6.3f} +- {e['f1_final_std']:5.3f}")
-    print(f"wrote {table}, {root / 'curves_psnr.png'}, {root / 'curves_f1.png'}")
+    print(f"wrote {table}, " + ", ".join(str(root / f"curves_{m}.png") for m in metrics_of(rows)))
     return 0
 
 

@@ -28,7 +28,12 @@ from .simulator import Simulator
 
 ALPHA = 0.05
 IMPLICIT_BASELINES = ("exploration", "fixed", "max_distance", "uniform")
-METRICS = ("psnr", "f1")
+METRICS = ("psnr", "psnr_clean", "f1")  # see stair_lite.evaluation for the two PSNRs
+
+
+def metrics_of(rows) -> tuple[str, ...]:
+    """The metrics every row has (results stored before ``psnr_clean`` existed lack it)."""
+    return tuple(m for m in METRICS if all(r.get(m) is not None for r in rows))
 
 
 def per_seed_scores(rows: list[dict], scene: str, variant: str, metric: str) -> np.ndarray:
@@ -71,7 +76,7 @@ class Comparison:
 
     def describe(self) -> str:
         a, b = self.claimed_scores, self.other_scores
-        digits = 2 if self.metric == "psnr" else 3
+        digits = 3 if self.metric == "f1" else 2
         return (f"{self.scene} {self.metric}: {self.claimed} {a.mean():.{digits}f} +- {a.std():.{digits}f} vs "
                 f"{self.other} {b.mean():.{digits}f} +- {b.std():.{digits}f} (n = {len(a)}/{len(b)}, "
                 f"p = {self.p_value:.3f}): {self.verdict}")
@@ -90,7 +95,7 @@ def claim_one(rows) -> list[Comparison]:
     """Claim (i): per scene and metric, STAIR against the implicit baseline with the best mean."""
     out = []
     for scene in scenes_of(rows):
-        for metric in METRICS:
+        for metric in metrics_of(rows):
             strongest = max(IMPLICIT_BASELINES, key=lambda v: per_seed_scores(rows, scene, v, metric).mean())
             out.append(compare(rows, scene, metric, "stair", strongest))
     return out
@@ -99,7 +104,7 @@ def claim_one(rows) -> list[Comparison]:
 def claim_two(rows) -> dict[str, list[Comparison]]:
     """Claim (ii): STAIR vs STE overall, and the paper's split into mapping and planning."""
     parts = {"overall": ("stair", "ste"), "mapping": ("ste_implicit", "ste"), "planning": ("stair_explicit", "ste")}
-    return {name: [compare(rows, scene, metric, a, b) for scene in scenes_of(rows) for metric in METRICS]
+    return {name: [compare(rows, scene, metric, a, b) for scene in scenes_of(rows) for metric in metrics_of(rows)]
             for name, (a, b) in parts.items()}
 
 
@@ -107,7 +112,7 @@ def claim_three(rows, exploit_only: str = "stair_eps0") -> list[Comparison]:
     """Claim (iii): every epsilon > 0 against exploitation alone, on each metric."""
     (scene,) = scenes_of(rows)
     others = sorted({r["variant"] for r in rows} - {exploit_only}, key=lambda v: float(v[len("stair_eps"):]))
-    return [compare(rows, scene, metric, v, exploit_only) for v in others for metric in METRICS]
+    return [compare(rows, scene, metric, v, exploit_only) for v in others for metric in metrics_of(rows)]
 
 
 def _simulators(spec, kept_objects, intrinsics: Intrinsics) -> tuple[Simulator, Simulator]:
@@ -170,7 +175,7 @@ def first_sight(rows, scene_object=HIDDEN_CHAIR, min_pixels: int = MIN_PIXELS) -
 def _table(comparisons: list[Comparison]) -> list[str]:
     lines = ["| scene | metric | claimed side | other side | difference | p | verdict |", "|---|---|---|---|---|---|---|"]
     for c in comparisons:
-        a, b, d = c.claimed_scores, c.other_scores, (2 if c.metric == "psnr" else 3)
+        a, b, d = c.claimed_scores, c.other_scores, (3 if c.metric == "f1" else 2)
         lines.append(f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} ± {a.std():.{d}f} (n={len(a)}) | "
                      f"{c.other} {b.mean():.{d}f} ± {b.std():.{d}f} (n={len(b)}) | {c.difference:+.{d}f} | "
                      f"{c.p_value:.3f} | {c.verdict} |")

@@ -33,7 +33,7 @@ ALL_VARIANTS = BASE_VARIANTS + tuple(CROSS_VALIDATION)
 PAPER_SCENES = ("scene1", "scene2", "scene3", "scene4")
 SWEEP_FILE = "sweep.json"
 RESULTS_DIR = Path(__file__).resolve().parent.parent / "data" / "results"  # the stored sweeps
-TABLE_COLUMNS = ("scene", "variant", "seed", "step", "psnr", "precision", "completeness", "f1", "chamfer",
+TABLE_COLUMNS = ("scene", "variant", "seed", "step", "psnr", "psnr_clean", "precision", "completeness", "f1", "chamfer",
                  "utility", "exploitation", "exploration", "loss", "elevation_deg", "azimuth_deg",
                  "time_plan_s", "time_train_s", "time_evaluate_s")
 
@@ -258,6 +258,7 @@ def collect(root: str | Path, log=print) -> list[dict]:
                 "scene": scene, "variant": variant, "seed": seed, "step": r["step"],
                 **{k: r[k] for k in ("psnr", "precision", "completeness", "f1", "chamfer", "utility", "exploitation",
                                      "exploration", "loss")},
+                "psnr_clean": r.get("psnr_clean"),  # missions run before it existed lack it
                 "elevation_deg": r["view_deg"][0], "azimuth_deg": r["view_deg"][1],
                 "time_plan_s": r["time_s"]["plan"], "time_train_s": r["time_s"]["train"],
                 "time_evaluate_s": r["time_s"]["evaluate"],

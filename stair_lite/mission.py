@@ -211,7 +211,7 @@ class Mission:
                 "utility": None, "exploitation": None, "exploration": None,
                 "loss": history[-1].total if history else None,
                 "loss_mean_last10": float(np.mean([h.total for h in history[-10:]])) if history else None,
-                **{k: result[k] for k in ("psnr", "precision", "completeness", "f1", "chamfer")},
+                **{k: result[k] for k in ("psnr", "psnr_clean", "precision", "completeness", "f1", "chamfer")},
                 "time_s": {"plan": t_plan, "measure": t_measure, "train": t_train, "evaluate": result["time_total_s"]},
             }
             if decision is not None and decision.scores is not None:

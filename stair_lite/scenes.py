@@ -8,7 +8,7 @@ a surface does not depend on the viewpoint: the field has no view dependence eit
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -189,6 +189,13 @@ class Scene:
     def labelled_meshes(self) -> list[tuple[trimesh.Trimesh, int]]:
         """Every mesh with its class id, ground first."""
         return [(self.ground, BACKGROUND)] + list(zip(self.object_meshes, self.object_classes))
+
+    def targets_alone(self, targets=None) -> "Scene":
+        """This scene with only its target objects on the ground (the other objects removed)."""
+        ids = self.check_targets(self.targets if targets is None else targets)
+        keep = [i for i, c in enumerate(self.object_classes) if c in ids]
+        spec = replace(self.spec, objects=tuple(self.spec.objects[i] for i in keep))
+        return Scene(spec=spec, object_meshes=[self.object_meshes[i] for i in keep], ground=self.ground)
 
     def target_mesh(self, targets=None) -> trimesh.Trimesh:
         """The ground-truth mesh of the target objects only (what the paper's mesh metrics compare to)."""

@@ -83,3 +83,56 @@ def test_skipping_empty_space_matches_the_exact_render():
         assert psnr(f, gt) == pytest.approx(psnr(e, gt), abs=0.05)
     result = evaluator.evaluate(field)
     assert result["psnr"] > 12 and 0 <= result["f1"] <= 1 and result["mesh"] is not None
+
+
+def small_eval_preset():
+    from dataclasses import replace
+
+    from stair_lite.config import EvalConfig
+
+    return replace(get_preset("lite"), field=FieldConfig(grid_resolution=32, rgb_hidden=(32, 32)),
+                   eval=EvalConfig(n_test_views=6, image_scale=0.2, mesh_resolution=64, mesh_points=20000))
+
+
+def test_clean_ground_truth_differs_only_where_other_objects_hide_a_target(tmp_path):
+    """Without other objects the two ground truths agree; in scene 1 the clean one shows more target."""
+    from dataclasses import replace
+
+    from stair_lite.scenes import build_scene, load_scene_spec, save_scene_spec
+
+    preset = small_eval_preset()
+    spec = load_scene_spec("scene1")
+    path = save_scene_spec(replace(spec, name="cars_only", objects=tuple(o for o in spec.objects if o.cls in spec.targets)),
+                           tmp_path / "cars_only.json")
+    alone = Evaluator(Simulator(build_scene(load_scene_spec(path))), spec.targets, preset)
+    for visible, clean in zip(alone.gt_images, alone.gt_alone_images):
+        assert np.array_equal(visible, clean)
+    full = Evaluator(Simulator(load_scene("scene1")), spec.targets, preset)
+    shown = lambda images: sum(int((g < 1).any(axis=-1).sum()) for g in images)
+    assert shown(full.gt_alone_images) > shown(full.gt_images)
+
+
+def test_clean_psnr_of_an_empty_map_is_the_blank_render_psnr():
+    """An untrained field renders no target (every sample's class argmax is background), so both PSNRs
+    are those of an all-white image; the clean one averages over the views that show a target."""
+    from stair_lite.field import SemanticField
+
+    preset = small_eval_preset()
+    scene = load_scene("scene1")
+    evaluator = Evaluator(Simulator(scene), scene.targets, preset)
+    result = evaluator.evaluate(SemanticField(preset.field, seed=0))
+    blank = [psnr(np.ones_like(g), g) for g in evaluator.gt_alone_images]
+    assert evaluator.views_with_targets and result["mesh"] is None
+    assert result["psnr_clean"] == pytest.approx(np.mean([blank[i] for i in evaluator.views_with_targets]))
+    assert result["psnr"] == pytest.approx(np.mean([psnr(np.ones_like(g), g) for g in evaluator.gt_images]))
+
+
+def test_above_ground_drops_only_the_cells_below_the_cut():
+    from stair_lite.evaluation import GROUND_CUT_Z, above_ground
+    from stair_lite.rendering import SkipGrid
+
+    r, bound = 16, 1.5
+    skip = SkipGrid(torch.ones(r, r, r, dtype=torch.bool), bound)
+    cut = above_ground(skip, bound)
+    z = np.linspace(-bound, bound, r)
+    assert np.array_equal(cut.keep[:, 0, 0].numpy(), z >= GROUND_CUT_Z) and cut.keep[:, 3, 7].equal(cut.keep[:, 0, 0])

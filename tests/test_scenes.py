@@ -137,3 +137,10 @@ def test_objects_may_stand_under_a_table_without_touching():
     table = ObjectSpec(cls=3, position=(0.0, 0.0), scale=1.5, seed=1)
     chair = ObjectSpec(cls=2, position=(0.0, 0.0), scale=0.9, seed=3)
     build_scene(SceneSpec("s", (table, chair), (2,)))  # no error: nested, not interpenetrating
+
+
+def test_targets_alone_keeps_exactly_the_target_objects():
+    scene = load_scene("scene4")
+    alone = scene.targets_alone()
+    assert sorted(alone.object_classes) == sorted(c for c in scene.object_classes if c in scene.targets)
+    assert np.isclose(alone.target_mesh().area, scene.target_mesh().area) and alone.ground is scene.ground

@@ -155,19 +155,21 @@ def tally(comparisons: list[Comparison]) -> dict[str, int]:
     return {v: verdicts.count(v) for v in ("holds", "not significant", "reversed")}
 
 
-HIDDEN_CHAIR = ("ablation_two_chairs", 2)  # the ablation scene and the index of its occluded chair (under the table)
+HIDDEN_CHAIR = {"ablation_two_chairs": 2, "ablation_hidden_chair": 2}  # ablation scene -> index of its occluded chair
 MIN_PIXELS = 20  # of 100 x 100: "the mission saw the object" (a sliver at a silhouette does not count)
 
 
-def first_sight(rows, scene_object=HIDDEN_CHAIR, min_pixels: int = MIN_PIXELS) -> dict[tuple[str, int], int | None]:
-    """(variant, seed) -> the first step whose view shows at least ``min_pixels`` of the object (None: never)."""
-    scene, index = scene_object
+def first_sight(rows, min_pixels: int = MIN_PIXELS) -> dict[tuple[str, int], int | None]:
+    """(variant, seed) -> the first step whose view shows at least ``min_pixels`` of the ablation scene's
+    occluded chair (None: never), for the one ablation scene of ``rows``."""
+    (scene,) = scenes_of(rows)
+    if scene not in HIDDEN_CHAIR:
+        raise ValueError(f"{scene!r} is not an ablation scene; known: {', '.join(HIDDEN_CHAIR)}")
     out = {}
-    for variant, seed in sorted({(r["variant"], int(r["seed"])) for r in rows if r["scene"] == scene}):
-        mine = sorted((r for r in rows if (r["scene"], r["variant"], r["seed"]) == (scene, variant, seed)),
-                      key=lambda r: r["step"])
+    for variant, seed in sorted({(r["variant"], int(r["seed"])) for r in rows}):
+        mine = sorted((r for r in rows if (r["variant"], r["seed"]) == (variant, seed)), key=lambda r: r["step"])
         views = np.radians([[r["elevation_deg"], r["azimuth_deg"]] for r in mine])
-        seen = np.flatnonzero(object_pixels(scene, index, views) >= min_pixels)
+        seen = np.flatnonzero(object_pixels(scene, HIDDEN_CHAIR[scene], views) >= min_pixels)
         out[(variant, seed)] = int(mine[seen[0]]["step"]) if len(seen) else None
     return out
 

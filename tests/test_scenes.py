@@ -144,3 +144,19 @@ def test_targets_alone_keeps_exactly_the_target_objects():
     alone = scene.targets_alone()
     assert sorted(alone.object_classes) == sorted(c for c in scene.object_classes if c in scene.targets)
     assert np.isclose(alone.target_mesh().area, scene.target_mesh().area) and alone.ground is scene.ground
+
+
+def test_walled_ablation_scene_shows_its_hidden_chair_from_few_views():
+    """The occluded chair of ``ablation_hidden_chair`` is hidden from the top and seen (at least
+    MIN_PIXELS of 100 x 100) from 5-25 % of the hemisphere; the other chair from most of it."""
+    from stair_lite.claims import HIDDEN_CHAIR, MIN_PIXELS, object_pixels
+    from stair_lite.geometry import TOP_VIEW, fibonacci_hemisphere
+
+    name = "ablation_hidden_chair"
+    scene = load_scene(name)
+    assert scene.targets == (class_id("chair"),) and scene.object_classes[HIDDEN_CHAIR[name]] == class_id("chair")
+    views = np.concatenate([[TOP_VIEW], fibonacci_hemisphere(100)])
+    hidden = object_pixels(name, HIDDEN_CHAIR[name], views) >= MIN_PIXELS
+    other = object_pixels(name, 0, views) >= MIN_PIXELS
+    assert not hidden[0] and other[0]
+    assert 0.05 < hidden[1:].mean() < 0.25 and other[1:].mean() > 0.6

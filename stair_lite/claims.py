@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import stats
 
+from .experiments import epsilon_of
 from .geometry import Intrinsics
 from .scenes import build_scene, load_scene_spec
 from .simulator import Simulator
@@ -111,7 +112,7 @@ def claim_two(rows) -> dict[str, list[Comparison]]:
 def claim_three(rows, exploit_only: str = "stair_eps0") -> list[Comparison]:
     """Claim (iii): every epsilon > 0 against exploitation alone, on each metric."""
     (scene,) = scenes_of(rows)
-    others = sorted({r["variant"] for r in rows} - {exploit_only}, key=lambda v: float(v[len("stair_eps"):]))
+    others = sorted({r["variant"] for r in rows} - {exploit_only}, key=epsilon_of)
     return [compare(rows, scene, metric, v, exploit_only) for v in others for metric in metrics_of(rows)]
 
 
@@ -209,7 +210,7 @@ def markdown_report(rows, ablation_rows=None) -> str:
         sight = first_sight(ablation_rows)
         out += ["Missions that saw the occluded chair (at least "
                 f"{MIN_PIXELS} of 100 x 100 pixels in some view), and the first step they did:", ""]
-        for variant in sorted({v for v, _ in sight}, key=lambda v: float(v[len("stair_eps"):])):
+        for variant in sorted({v for v, _ in sight}, key=epsilon_of):
             steps = [sight[k] for k in sorted(sight) if k[0] == variant]
             found = [s for s in steps if s is not None]
             out.append(f"- {variant}: {len(found)} of {len(steps)} missions; first sight at steps {found}")

@@ -52,13 +52,18 @@ class Cell:
         return json.loads((self.folder(root) / METRICS_FILE).read_text())["steps"]
 
 
+def epsilon_of(variant: str) -> float:
+    """The exploration weight of a ``stair_eps<value>`` variant."""
+    return float(variant[len("stair_eps"):])
+
+
 def check_variant(name: str) -> str:
     """Accept a known variant name or ``stair_eps<non-negative number>``."""
     if name in ALL_VARIANTS:
         return name
     if name.startswith("stair_eps"):
         try:
-            if float(name[len("stair_eps"):]) >= 0:
+            if epsilon_of(name) >= 0:
                 return name
         except ValueError:
             pass
@@ -73,7 +78,7 @@ def mission_config(cell: Cell, root: Path, preset: str, budget: int) -> MissionC
         mapper = "explicit" if cell.variant == "stair_explicit" else "implicit"
         return MissionConfig(planner="replay", replay=str(source), mapper=mapper, **common)
     if cell.variant.startswith("stair_eps"):
-        return MissionConfig(planner="stair", epsilon=float(cell.variant[len("stair_eps"):]), **common)
+        return MissionConfig(planner="stair", epsilon=epsilon_of(cell.variant), **common)
     return MissionConfig(planner=cell.variant, mapper="explicit" if cell.variant == "ste" else "implicit", **common)
 
 

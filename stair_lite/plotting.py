@@ -123,8 +123,12 @@ def plot_camera_path(scene, records, ax=None, title: str = ""):
 
 
 def plot_sweep_curves(rows, metric: str = "psnr", variants=None, axes=None, ylabel: str | None = None):
-    """One panel per scene, one line per variant: mean over seeds with a shaded +-1 std band (paper Fig. 4)."""
-    from .experiments import curves
+    """One panel per scene, one line per variant: mean over seeds with a shaded +-1 std band (paper Fig. 4).
+
+    As in the paper's Fig. 5, a cross-validation variant is dashed and shares the colour of the variant
+    whose measurements it uses (``stair_explicit`` that of ``stair``, ``ste_implicit`` that of ``ste``).
+    """
+    from .experiments import CROSS_VALIDATION, curves
 
     data = curves(rows, metric)
     scenes = sorted({s for s, _ in data})
@@ -132,15 +136,18 @@ def plot_sweep_curves(rows, metric: str = "psnr", variants=None, axes=None, ylab
     if axes is None:
         _, axes = plt.subplots(1, len(scenes), figsize=(4 * len(scenes), 3.3), squeeze=False)
         axes = axes[0]
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    measured_by = {v: CROSS_VALIDATION.get(v, v) for v in variants}
+    order = list(dict.fromkeys(measured_by.values()))
+    colour = {v: cycle[order.index(m) % len(cycle)] for v, m in measured_by.items()}
     for ax, scene in zip(axes, scenes):
-        for i, variant in enumerate(variants):
+        for variant in variants:
             if (scene, variant) not in data:
                 continue
             steps, mean, std, n = data[(scene, variant)]
-            style = "--" if variant in ("stair_explicit", "ste_implicit") else "-"
-            ax.plot(steps, mean, style, color=colours[i % len(colours)], label=f"{variant} (n={n})")
-            ax.fill_between(steps, mean - std, mean + std, color=colours[i % len(colours)], alpha=0.15)
+            style = "--" if variant in CROSS_VALIDATION else "-"
+            ax.plot(steps, mean, style, color=colour[variant], label=f"{variant} (n={n})")
+            ax.fill_between(steps, mean - std, mean + std, color=colour[variant], alpha=0.15)
         ax.set_title(scene)
         ax.set_xlabel("measurements")
         ax.grid(alpha=0.3)

@@ -213,12 +213,12 @@ def _cmd_report(args):
         axes[0].figure.tight_layout()
         axes[0].figure.savefig(root / f"curves_{metric}.png", dpi=90)
     plt.close("all")
-    entries = summary(rows)
-    print(f"{'scene':10s} {'variant':16s} {'n':>2s} {'PSNR mean-over-steps':>21s} {'PSNR final':>14s} {'F1 mean-over-steps':>19s} {'F1 final':>14s}")
-    for e in entries:
-        print(f"{e['scene']:10s} {e['variant']:16s} {e['seeds']:2d} {e['psnr_auc_mean']:13.2f} +- {e['psnr_auc_std']:4.2f} "
-              f"{e['psnr_final_mean']:7.2f} +- {e['psnr_final_std']:4.2f} {e['f1_auc_mean']:11.3f} +- {e['f1_auc_std']:5.3f} "
-              f"{e['f1_final_mean']:6.3f} +- {e['f1_final_std']:5.3f}")
+    metrics = metrics_of(rows)
+    print(f"{'scene':10s} {'variant':16s} {'n':>2s}" + "".join(f" {m + ' mean-over-steps':>24s} {m + ' final':>16s}" for m in metrics))
+    for e in summary(rows, metrics):
+        print(f"{e['scene']:10s} {e['variant']:16s} {e['seeds']:2d}" + "".join(
+            f" {e[m + '_auc_mean']:15.3f} +- {e[m + '_auc_std']:5.3f} {e[m + '_final_mean']:7.3f} +- {e[m + '_final_std']:5.3f}"
+            for m in metrics))
     print(f"wrote {table}, " + ", ".join(str(root / f"curves_{m}.png") for m in metrics_of(rows)))
     return 0
 

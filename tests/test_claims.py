@@ -28,6 +28,7 @@ def fake_rows(means: dict, seeds=5, steps=3, noise=0.1, scene="scene1", seed=0):
 def test_per_seed_scores_are_means_over_steps():
     rows = fake_rows({"stair": 20.0}, seeds=2, noise=0.0)
     assert np.allclose(per_seed_scores(rows, "scene1", "stair", "psnr"), [20.0, 20.0])
+    assert np.allclose(per_seed_scores(rows, "scene1", "stair", "psnr", step=3), [20.5, 20.5])  # level + (3 - 2) * 0.5
     with pytest.raises(ValueError, match="no results for variant 'ste'"):
         per_seed_scores(rows, "scene1", "ste", "psnr")
 

@@ -13,11 +13,10 @@ import time
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
 from stair_lite.evaluation import Evaluator
-from stair_lite.field import SemanticField
 from stair_lite.geometry import fibonacci_hemisphere, view_to_pose
+from stair_lite.maps import ImplicitMap
 from stair_lite.scenes import load_scene
 from stair_lite.simulator import Simulator
-from stair_lite.training import Trainer
 
 
 def main():
@@ -30,19 +29,18 @@ def main():
     preset = get_preset(args.preset)
     scene = load_scene(args.scene)
     sim = Simulator(scene)
-    field = SemanticField(preset.field, seed=0)
-    trainer = Trainer(field, preset.train, preset.render, seed=0)
+    implicit = ImplicitMap.from_preset(preset, seed=0)
     evaluator = Evaluator(sim, scene.targets, preset)
     updates, evals = [], []
     for i, (el, az) in enumerate(fibonacci_hemisphere(args.views, azimuth_offset=0.3)):
-        trainer.add_measurement(sim.render(view_to_pose(el, az)))
+        implicit.add_measurement(sim.render(view_to_pose(el, az)))
         start = time.perf_counter()
-        trainer.update()
+        implicit.update()
         updates.append(time.perf_counter() - start)
         line = f"view {i + 1:2d}: update {updates[-1]:.2f} s"
         if i >= args.views - args.evals:
             start = time.perf_counter()
-            result = evaluator.evaluate(field)
+            result = evaluator.evaluate(implicit)
             evals.append(time.perf_counter() - start)
             line += f" | evaluation {evals[-1]:.2f} s: PSNR {result['psnr']:.2f} dB, F1 {result['f1']:.3f}"
         print(line, flush=True)

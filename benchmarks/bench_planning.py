@@ -15,13 +15,12 @@ import numpy as np
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
 from stair_lite.explicit import ExplicitMap
-from stair_lite.field import SemanticField
 from stair_lite.geometry import TOP_VIEW, Intrinsics, fibonacci_hemisphere, view_to_pose
+from stair_lite.maps import ImplicitMap
 from stair_lite.mission import Mission, MissionConfig
 from stair_lite.planners import make_planner
 from stair_lite.scenes import load_scene
 from stair_lite.simulator import Simulator
-from stair_lite.training import Trainer
 from stair_lite.utility import FieldSnapshot, UtilityOptions, score_views
 
 
@@ -35,13 +34,12 @@ def main():
     preset = get_preset(args.preset)
     scene = load_scene(args.scene)
     sim = Simulator(scene)
-    field = SemanticField(preset.field, seed=0)
-    trainer = Trainer(field, preset.train, preset.render, seed=0)
+    implicit = ImplicitMap.from_preset(preset, seed=0)
+    field = implicit.field
     visited = [np.array(TOP_VIEW)] + list(fibonacci_hemisphere(3, azimuth_offset=0.3))
     for view in visited:
-        trainer.add_measurement(sim.render(view_to_pose(*view)))
-        trainer.update()
-    planner = make_planner("stair", preset.plan, seed=0)
+        implicit.integrate(sim.render(view_to_pose(*view)))
+    planner = make_planner("stair", preset, seed=0)
     times = []
     for _ in range(args.repeats + 1):
         start = time.perf_counter()
@@ -76,7 +74,7 @@ def main():
     for view in visited:
         emap.integrate(sim.render(view_to_pose(*view)))
     t_integrate = (time.perf_counter() - start) / len(visited)
-    ste = make_planner("ste", preset.plan, seed=0, n_ste_candidates=preset.explicit.n_candidates)
+    ste = make_planner("ste", preset, seed=0)
     ste_times = []
     for _ in range(args.repeats):
         start = time.perf_counter()

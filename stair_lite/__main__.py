@@ -18,10 +18,14 @@ from pathlib import Path
 import stair_lite  # noqa: F401  (sets the offscreen platform before pyrender loads)
 
 from .classes import CLASS_NAMES
+from .maps import MAP_KINDS
+from .planners import PLANNERS, REPLAY
 
 
 def _cmd_scenes(args):
     from .classes import CLASS_NAMES
+from .maps import MAP_KINDS
+from .planners import PLANNERS, REPLAY
     from .scenes import list_scenes, load_scene_spec
 
     for name in list_scenes():
@@ -61,11 +65,10 @@ def _cmd_fit(args):
 
     from .config import check_device, get_preset
     from .evaluation import Evaluator
-    from .field import SemanticField
     from .geometry import fibonacci_hemisphere, view_to_pose
+    from .maps import ImplicitMap
     from .scenes import load_scene
     from .simulator import Simulator
-    from .training import Trainer
 
     preset = get_preset(args.preset)
     if args.iterations is not None:
@@ -79,20 +82,18 @@ def _cmd_fit(args):
     scene = load_scene(args.scene)
     targets = scene.check_targets(args.targets.split(",") if args.targets else scene.targets)
     sim = Simulator(scene)
-    field = SemanticField(preset.field, seed=args.seed).to(check_device(args.device))
-    trainer = Trainer(field, preset.train, preset.render, seed=args.seed)
+    implicit = ImplicitMap.from_preset(preset, seed=args.seed, device=check_device(args.device))
     evaluator = Evaluator(sim, targets, preset, seed=args.seed)
     views = fibonacci_hemisphere(args.views, azimuth_offset=0.3)
     print(f"preset {preset.name}: grid {preset.field.grid_resolution}^3, {preset.train.iterations_per_view} "
           f"iterations/view, {preset.train.rays_new}+{preset.train.rays_replay} rays; scene {scene.name}, targets {targets}")
     start = time.perf_counter()
     for i, (el, az) in enumerate(views):
-        trainer.add_measurement(sim.render(view_to_pose(el, az)))
-        history = trainer.update()
+        history = implicit.integrate(sim.render(view_to_pose(el, az)))
         print(f"view {i + 1:2d}/{len(views)} (el {np.degrees(el):4.1f}, az {np.degrees(az):5.1f}): "
               f"loss {history[-1].total:.4f}", flush=True)
     t_train = time.perf_counter() - start
-    result = evaluator.evaluate(field)
+    result = evaluator.evaluate(implicit)
     print(f"target-only PSNR {result['psnr']:.2f} dB over {len(evaluator.poses)} test views | mesh precision "
           f"{result['precision']:.3f} completeness {result['completeness']:.3f} F1 {result['f1']:.3f} "
           f"(1 cm, {preset.eval.mesh_points} points) | training {t_train:.1f} s, evaluation {result['time_total_s']:.1f} s")
@@ -155,7 +156,7 @@ def _cmd_run(args):
     ax = plot_camera_path(mission.scene, records, title=f"{config.planner}: camera path")
     ax.figure.savefig(out / "camera_path.png", dpi=90)
     plt.close("all")
-    mesh = getattr(mission, "last_mesh", None)
+    mesh = mission.map.target_mesh(mission.targets)
     if mesh is not None:
         mesh.export(out / "target_mesh.ply")
     print(f"done in {time.perf_counter() - start:.1f} s: final PSNR {records[-1]['psnr']:.2f} dB, F1 {records[-1]['f1']:.3f}; "
@@ -260,13 +261,15 @@ def main(argv=None):
     p.set_defaults(func=_cmd_fit)
     p = sub.add_parser("run", help="run one active reconstruction mission")
     p.add_argument("--scene", default="scene1")
-    p.add_argument("--planner", default="stair", help="stair, exploration, fixed, max_distance, uniform, ste or replay")
+    p.add_argument("--planner", default="stair", help=", ".join((*PLANNERS, REPLAY)))
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--preset", default="lite", choices=["lite", "paper", "smoke"])
     p.add_argument("--targets", default=None, help="comma-separated class names (default: the scene's)")
-    p.add_argument("--budget", type=int, default=10, help="number of measurements, the top view included")
-    p.add_argument("--epsilon", type=float, default=0.2, help="exploration weight of the STAIR utility")
-    p.add_argument("--mapper", default="implicit", choices=["implicit", "explicit"], help="the map that is evaluated")
+    p.add_argument("--budget", type=int, default=None, help="number of measurements, the top view included "
+                   "(default: the preset's, 10)")
+    p.add_argument("--epsilon", type=float, default=None, help="exploration weight of the STAIR utility (default: the preset's, 0.2)")
+    p.add_argument("--mapper", default=None, choices=MAP_KINDS, help="the map that is evaluated (default: the map the "
+                   "planner reads, else the field)")
     p.add_argument("--replay", default=None, help="with --planner replay: a metrics.json whose views are followed")
     p.add_argument("--out", default="runs/demo")
     p.add_argument("--resume", action="store_true", help="continue a mission found in --out")
@@ -280,7 +283,7 @@ def main(argv=None):
     p.add_argument("--seeds", type=int, default=5, help="number of seeds per cell")
     p.add_argument("--first-seed", type=int, default=0)
     p.add_argument("--preset", default="lite", choices=["lite", "paper", "smoke"])
-    p.add_argument("--budget", type=int, default=10)
+    p.add_argument("--budget", type=int, default=None, help="measurements per mission (default: the preset's, 10)")
     p.add_argument("--workers", type=int, default=1, help="parallel worker processes (spawned)")
     p.add_argument("--out", default="runs/sweep")
     p.add_argument("--quiet", action="store_true")

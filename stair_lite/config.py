@@ -8,6 +8,20 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from dataclasses import field as dataclass_field
 
+from .lattice import CUBE_BOUND
+
+
+def check_epsilon(epsilon: float) -> None:
+    """The exploration weight of Eq. 15 is a non-negative number."""
+    if not epsilon >= 0:
+        raise ValueError(f"epsilon must be >= 0, got {epsilon!r}")
+
+
+def check_budget(budget: int) -> None:
+    """A mission makes at least one measurement (the top view)."""
+    if int(budget) != budget or budget < 1:
+        raise ValueError(f"budget must be at least 1 measurement, got {budget!r}")
+
 
 @dataclass(frozen=True)
 class FieldConfig:
@@ -21,7 +35,7 @@ class FieldConfig:
     occ_hidden: tuple[int, ...] = (32, 32)
     rgb_hidden: tuple[int, ...] = (128, 128)
     occupancy_shift: float = -6.0  # o = 1 - exp(-softplus(f + shift)): the map starts almost empty
-    bound: float = 1.5  # the grids span the scene cube [-bound, bound]^3
+    bound: float = CUBE_BOUND  # the grids span the scene cube [-bound, bound]^3
 
 
 @dataclass(frozen=True)
@@ -70,7 +84,10 @@ class PlanConfig:
     resample_angle: tuple[float, float] = (0.1, 0.5)  # radians, as the reference code
     candidate_scale: float = 0.2  # 400x400 -> 80x80 = N_ray
     candidate_samples: int = 200  # N_pt
-    epsilon: float = 0.2
+    epsilon: float = 0.2  # the exploration weight of Eq. 15 (the one default; UtilityOptions takes it from here)
+
+    def __post_init__(self):
+        check_epsilon(self.epsilon)
 
 
 @dataclass(frozen=True)
@@ -78,14 +95,14 @@ class ExplicitConfig:
     """The explicit STE baseline's map (OctoMap's sensor model and clamping) and ROI planner."""
 
     resolution: int = 128  # the same grid size as the field (paper Sec. IV-C)
-    bound: float = 1.5
+    bound: float = CUBE_BOUND
     prob_hit: float = 0.7
     prob_miss: float = 0.4
     clamp_min: float = 0.12
     clamp_max: float = 0.97
     carve_background: bool = True  # rays that hit nothing inside the cube mark their whole path free
     pixel_stride: int = 2  # integrate every n-th pixel in each direction
-    n_candidates: int = 100
+    n_candidates: int = 100  # random candidate views per planning step
     candidate_scale: float = 0.1  # 400x400 -> 40x40 rays per candidate, as the reference code
     roi_max_distance: int = 10  # voxels: unknown voxels closer than this to a target voxel score higher
 
@@ -101,7 +118,18 @@ class Preset:
     eval: EvalConfig = dataclass_field(default_factory=EvalConfig)
     plan: PlanConfig = dataclass_field(default_factory=PlanConfig)
     explicit: ExplicitConfig = dataclass_field(default_factory=ExplicitConfig)
-    budget: int = 10  # measurements per mission, the top view included
+    budget: int = 10  # measurements per mission, the top view included (the default of missions and sweeps)
+
+    def __post_init__(self):
+        check_budget(self.budget)
+
+    def with_epsilon(self, epsilon: float) -> "Preset":
+        """This preset with another exploration weight (Eq. 15)."""
+        return replace(self, plan=replace(self.plan, epsilon=epsilon))
+
+    def with_budget(self, budget: int) -> "Preset":
+        """This preset with another number of measurements per mission."""
+        return replace(self, budget=budget)
 
 
 PAPER = Preset(name="paper")

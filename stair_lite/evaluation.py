@@ -23,7 +23,7 @@ from skimage.measure import marching_cubes
 from .classes import BACKGROUND
 from .config import Preset
 from .geometry import Intrinsics, test_views, view_to_pose
-from .rendering import SkipGrid, build_skip_grid, render_image
+from .lattice import Lattice, xyz
 from .simulator import Simulator, target_only_image
 
 GROUND_CUT_Z = -0.05  # the ground's top is z = 0; nothing below it is observable, so metrics ignore it
@@ -36,41 +36,32 @@ def psnr(prediction: np.ndarray, target: np.ndarray) -> float:
 
 
 @torch.no_grad()
-def occupancy_volume(field, resolution: int, targets=None, z_min: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Occupancy on a regular (R, R, R) lattice over the cube, indexed [x, y, z], and the lattice's axis.
+def occupancy_volume(field, resolution: int, targets=None, z_min: float | None = None) -> tuple[np.ndarray, Lattice]:
+    """Occupancy on a ``Lattice`` of ``resolution``^3 vertices over the cube, as an (R, R, R) volume indexed
+    [x, y, z], and the lattice.
 
     Points whose semantic argmax is background (or, with ``targets``, not a target) count as empty:
-    the paper's target-only mesh. ``z_min`` skips the part of the cube below it (it stays empty).
+    the paper's target-only mesh. ``z_min`` skips the layers below it (they stay empty).
     """
-    b = field.cfg.bound
-    axis = np.linspace(-b, b, resolution, dtype=np.float32)
-    zs = axis if z_min is None else axis[axis >= z_min - (axis[1] - axis[0])]
-    grid = torch.as_tensor(np.stack(np.meshgrid(axis, axis, zs, indexing="ij"), -1).reshape(-1, 3), device=field.device)
-    q = field.query(grid)
+    lattice = Lattice(resolution, field.lattice.bound)
+    first = lattice.first_layer(z_min) if z_min is not None else 0
+    q = field.query(lattice.points(field.device, z_min=z_min))
     label = q["sem"].argmax(dim=1)
     keep = label != BACKGROUND if targets is None else torch.isin(label, torch.as_tensor(targets, device=label.device))
-    occ = (q["occ"] * keep).view(resolution, resolution, len(zs)).cpu().numpy()
-    volume = np.zeros((resolution, resolution, resolution), np.float32)
-    volume[:, :, resolution - len(zs):] = occ
-    return volume, axis
+    volume = np.zeros((resolution,) * 3, np.float32)  # indexed [z, y, x], the lattice's flat order
+    volume[first:] = (q["occ"] * keep).view(resolution - first, resolution, resolution).cpu().numpy()
+    return xyz(volume), lattice
 
 
 def extract_mesh(field, resolution: int = 128, targets=None, threshold: float = 0.5) -> trimesh.Trimesh | None:
     """Marching cubes of the (target-only) occupancy at ``threshold`` (paper: 0.5); None when nothing is occupied."""
-    volume, axis = occupancy_volume(field, resolution, targets, z_min=GROUND_CUT_Z)
+    volume, lattice = occupancy_volume(field, resolution, targets, z_min=GROUND_CUT_Z)
     if volume.max() <= threshold or volume.min() >= threshold:
         return None
-    spacing = float(axis[1] - axis[0])
     padded = np.pad(volume, 1)  # closed surfaces at the cube's faces
-    verts, faces, _, _ = marching_cubes(padded, level=threshold, spacing=(spacing,) * 3)
-    verts = verts - spacing + axis[0]
+    verts, faces, _, _ = marching_cubes(padded, level=threshold, spacing=(lattice.spacing,) * 3)
+    verts = verts - lattice.spacing - lattice.bound
     return trimesh.Trimesh(vertices=verts, faces=faces, process=False)
-
-
-def above_ground(skip: SkipGrid, bound: float) -> SkipGrid:
-    """``skip`` without the lattice cells below ``GROUND_CUT_Z`` (to the lattice's resolution)."""
-    z = torch.linspace(-bound, bound, skip.keep.shape[0], device=skip.keep.device)
-    return SkipGrid(skip.keep & (z >= GROUND_CUT_Z)[:, None, None], skip.bound)  # keep is indexed [z, y, x]
 
 
 @dataclass
@@ -109,8 +100,9 @@ def mesh_scores(pred: trimesh.Trimesh | None, gt: trimesh.Trimesh, n_points: int
 class Evaluator:
     """Target-only evaluation of a map against one scene: ground truth is rendered and sampled once.
 
-    ``evaluate(model)`` takes a SemanticField or an ExplicitMap and returns the mean target-only PSNR over the test views and the target-mesh
-    precision / completeness / F1 / chamfer, plus the predicted mesh.
+    ``evaluate(map)`` takes a map (maps.py) and returns the mean target-only PSNR over the test views
+    (``psnr``, the paper's; ``psnr_clean``), the target-mesh precision / completeness / F1 / chamfer, and
+    the predicted mesh.
     """
 
     def __init__(self, simulator: Simulator, targets, preset: Preset, seed: int = 0):
@@ -130,34 +122,15 @@ class Evaluator:
         self.gt_points = sample_surface(self.gt_mesh, cfg.mesh_points, seed)
         self.gt_tree = cKDTree(self.gt_points)
 
-    def render_test_views(self, field, skip_empty_space: bool = True, skip: SkipGrid | None = None) -> list[np.ndarray]:
-        """Target-only renders of the map at every test view (for a field, skipping space that holds no
-        target, or the cells ``skip`` leaves out)."""
-        if hasattr(field, "render_target_only"):  # the explicit map renders itself
-            return [field.render_target_only(self.intrinsics, p, self.targets) for p in self.poses]
-        if skip is None and skip_empty_space:
-            skip = build_skip_grid(field, self.targets)
-        return [
-            render_image(field, self.intrinsics, p, self.preset.render, targets=self.targets, skip=skip)["rgb"]
-            for p in self.poses
-        ]
-
-    def evaluate(self, field) -> dict:
+    def evaluate(self, reconstruction) -> dict:
+        """Score a map (any ``maps.ReconstructionMap``): both target-only PSNRs and the target mesh."""
         cfg = self.preset.eval
         start = time.perf_counter()
-        if hasattr(field, "render_target_only"):  # the voxel map renders only voxels it has seen occupied: no cut
-            renders = cut = self.render_test_views(field)
-        else:
-            skip = build_skip_grid(field, self.targets)
-            renders = self.render_test_views(field, skip=skip)
-            cut = self.render_test_views(field, skip=above_ground(skip, field.cfg.bound))
+        renders, cut = reconstruction.target_only_renders(self.intrinsics, self.poses, self.targets, z_min=GROUND_CUT_Z)
         psnrs = [psnr(r, g) for r, g in zip(renders, self.gt_images)]
         psnr_clean = float(np.mean([psnr(cut[i], self.gt_alone_images[i]) for i in self.views_with_targets]))
         t_render = time.perf_counter() - start
-        if hasattr(field, "extract_target_mesh"):
-            mesh = field.extract_target_mesh(self.targets)
-        else:
-            mesh = extract_mesh(field, cfg.mesh_resolution, targets=self.targets)
+        mesh = reconstruction.target_mesh(self.targets)
         scores = mesh_scores_from_points(sample_surface(mesh, cfg.mesh_points, self.seed + 1), self.gt_tree, self.gt_points, cfg.f1_threshold)
         return {
             "psnr": float(np.mean(psnrs)),

@@ -24,18 +24,39 @@ from pathlib import Path
 import numpy as np
 
 from .config import get_preset
-from .mission import METRICS_FILE, Mission, MissionConfig, ResultsFolderError, write_json_atomically
+from .maps import EXPLICIT, IMPLICIT
+from .mission import METRICS_FILE, SCORE_COLUMNS, Mission, MissionConfig, ResultsFolderError, write_json_atomically
+from .planners import PLANNERS, REPLAY
 from .scenes import list_scenes
 
-BASE_VARIANTS = ("stair", "exploration", "fixed", "max_distance", "uniform", "ste")
-CROSS_VALIDATION = {"stair_explicit": "stair", "ste_implicit": "ste"}  # variant -> the cell whose views it replays
-ALL_VARIANTS = BASE_VARIANTS + tuple(CROSS_VALIDATION)
 PAPER_SCENES = ("scene1", "scene2", "scene3", "scene4")
 SWEEP_FILE = "sweep.json"
 RESULTS_DIR = Path(__file__).resolve().parent.parent / "data" / "results"  # the stored sweeps
 TABLE_COLUMNS = ("scene", "variant", "seed", "step", "psnr", "psnr_clean", "precision", "completeness", "f1", "chamfer",
-                 "utility", "exploitation", "exploration", "loss", "elevation_deg", "azimuth_deg",
-                 "time_plan_s", "time_train_s", "time_evaluate_s")
+                 *SCORE_COLUMNS, "loss", "elevation_deg", "azimuth_deg", "time_plan_s", "time_train_s", "time_evaluate_s")
+EPSILON_PREFIX = "stair_eps"
+
+
+@dataclass(frozen=True)
+class Variant:
+    """What a sweep variant runs: a planner, the map that is evaluated (None: the planner's own map, else
+    the field), the variant whose views it follows (the paper's cross-validation) and an exploration
+    weight (None: the preset's)."""
+
+    name: str
+    planner: str
+    mapper: str | None = None
+    replays: str | None = None
+    epsilon: float | None = None
+
+
+# Every planner is a variant; the cross-validation evaluates one planner's views on the other map.
+VARIANTS = {**{name: Variant(name, name) for name in PLANNERS},
+            "stair_explicit": Variant("stair_explicit", REPLAY, EXPLICIT, replays="stair"),
+            "ste_implicit": Variant("ste_implicit", REPLAY, IMPLICIT, replays="ste")}
+BASE_VARIANTS = tuple(PLANNERS)
+CROSS_VALIDATION = {v.name: v.replays for v in VARIANTS.values() if v.replays}  # variant -> the variant it replays
+ALL_VARIANTS = tuple(VARIANTS)
 
 
 @dataclass(frozen=True)
@@ -52,34 +73,31 @@ class Cell:
         return json.loads((self.folder(root) / METRICS_FILE).read_text())["steps"]
 
 
-def epsilon_of(variant: str) -> float:
+def epsilon_of(name: str) -> float:
     """The exploration weight of a ``stair_eps<value>`` variant."""
-    return float(variant[len("stair_eps"):])
+    return float(name[len(EPSILON_PREFIX):])
 
 
-def check_variant(name: str) -> str:
-    """Accept a known variant name or ``stair_eps<non-negative number>``."""
-    if name in ALL_VARIANTS:
-        return name
-    if name.startswith("stair_eps"):
+def variant(name: str) -> Variant:
+    """The variant of a name: a known one or ``stair_eps<non-negative number>`` (STAIR with that epsilon)."""
+    if name in VARIANTS:
+        return VARIANTS[name]
+    if name.startswith(EPSILON_PREFIX):
         try:
-            if epsilon_of(name) >= 0:
-                return name
+            epsilon = epsilon_of(name)
         except ValueError:
-            pass
-    raise ValueError(f"unknown planner variant {name!r}; choose from {', '.join(ALL_VARIANTS)} or stair_eps<value>")
+            epsilon = -1.0
+        if epsilon >= 0:
+            return Variant(name, "stair", epsilon=epsilon)
+    raise ValueError(f"unknown planner variant {name!r}; choose from {', '.join(ALL_VARIANTS)} or {EPSILON_PREFIX}<value>")
 
 
-def mission_config(cell: Cell, root: Path, preset: str, budget: int) -> MissionConfig:
+def mission_config(cell: Cell, root: Path, preset: str, budget: int | None = None) -> MissionConfig:
     """The mission a cell runs."""
-    common = dict(scene=cell.scene, seed=cell.seed, preset=preset, budget=budget)
-    if cell.variant in CROSS_VALIDATION:
-        source = Cell(cell.scene, CROSS_VALIDATION[cell.variant], cell.seed).folder(root) / METRICS_FILE
-        mapper = "explicit" if cell.variant == "stair_explicit" else "implicit"
-        return MissionConfig(planner="replay", replay=str(source), mapper=mapper, **common)
-    if cell.variant.startswith("stair_eps"):
-        return MissionConfig(planner="stair", epsilon=epsilon_of(cell.variant), **common)
-    return MissionConfig(planner=cell.variant, mapper="explicit" if cell.variant == "ste" else "implicit", **common)
+    v = variant(cell.variant)
+    replay = str(Cell(cell.scene, v.replays, cell.seed).folder(root) / METRICS_FILE) if v.replays else None
+    return MissionConfig(scene=cell.scene, planner=v.planner, seed=cell.seed, preset=preset, budget=budget,
+                         epsilon=v.epsilon, mapper=v.mapper, replay=replay)
 
 
 def cell_state(cell: Cell, root: Path, budget: int) -> str:
@@ -118,7 +136,7 @@ class SweepSpec:
     variants: tuple[str, ...]
     seeds: tuple[int, ...]
     preset: str = "lite"
-    budget: int = 10
+    budget: int | None = None  # None: the preset's
 
     def __post_init__(self):
         known = set(list_scenes())
@@ -126,19 +144,19 @@ class SweepSpec:
         if bad:
             raise ValueError(f"unknown scenes {bad}; shipped scenes: {', '.join(sorted(known))}")
         for v in self.variants:
-            check_variant(v)
+            variant(v)
         if not self.seeds or min(self.seeds) < 0:
             raise ValueError(f"seeds must be non-negative, got {list(self.seeds)}")
-        if self.budget < 1:
-            raise ValueError(f"budget must be at least 1, got {self.budget}")
-        get_preset(self.preset)
+        preset = get_preset(self.preset)
+        object.__setattr__(self, "budget", preset.budget if self.budget is None else self.budget)
+        preset.with_budget(self.budget)  # checks it
 
     def cells(self) -> list[Cell]:
         """All cells, seed by seed (a partial sweep covers every scene and variant); within a seed the
         cross-validation ones last (they replay other cells' views)."""
-        ordered = sorted(self.variants, key=lambda v: v in CROSS_VALIDATION)
+        ordered = sorted(self.variants, key=lambda v: variant(v).replays is not None)
         return sorted((Cell(s, v, k) for v in ordered for s in self.scenes for k in self.seeds),
-                      key=lambda c: (c.seed, c.variant in CROSS_VALIDATION))
+                      key=lambda c: (c.seed, variant(c.variant).replays is not None))
 
 
 # How closely a stored cell reproduces elsewhere. One machine at one torch thread count reproduces a
@@ -183,7 +201,8 @@ def check_sweep_folder(root: Path, spec: SweepSpec, log=print) -> None:
 
 def replay_source(cell: Cell) -> Cell | None:
     """The cell whose views a cross-validation cell replays (None for every other cell)."""
-    return Cell(cell.scene, CROSS_VALIDATION[cell.variant], cell.seed) if cell.variant in CROSS_VALIDATION else None
+    replays = variant(cell.variant).replays
+    return Cell(cell.scene, replays, cell.seed) if replays else None
 
 
 def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: bool = True, log=print,
@@ -249,20 +268,24 @@ def collect(root: str | Path, log=print) -> list[dict]:
     sweep_file = Path(root) / SWEEP_FILE
     budget = json.loads(sweep_file.read_text())["budget"] if sweep_file.exists() else 1
     for path in sorted(Path(root).glob(f"*/*/seed*/{METRICS_FILE}")):
-        scene, variant, seed = path.parts[-4], path.parts[-3], int(path.parts[-2][4:])
+        scene, variant_name, seed = path.parts[-4], path.parts[-3], int(path.parts[-2][4:])
         try:
-            steps = json.loads(path.read_text())["steps"]
+            stored = json.loads(path.read_text())
+            steps = stored["steps"]
         except (json.JSONDecodeError, KeyError, UnicodeDecodeError) as err:
             log(f"skipping unreadable {path}: {err}")
             continue
         if len(steps) < budget:
             log(f"skipping unfinished {path} ({len(steps)} of {budget} steps)")
             continue
+        planner = stored.get("config", {}).get("planner")
         for r in steps:
+            scores = {k: r.get(k) for k in SCORE_COLUMNS}
+            if planner == "ste" and "ste_utility" not in r:  # written before STE's score had its own column
+                scores = {**dict.fromkeys(SCORE_COLUMNS), "ste_utility": r["utility"]}
             rows.append({
-                "scene": scene, "variant": variant, "seed": seed, "step": r["step"],
-                **{k: r[k] for k in ("psnr", "precision", "completeness", "f1", "chamfer", "utility", "exploitation",
-                                     "exploration", "loss")},
+                "scene": scene, "variant": variant_name, "seed": seed, "step": r["step"],
+                **{k: r[k] for k in ("psnr", "precision", "completeness", "f1", "chamfer", "loss")}, **scores,
                 "psnr_clean": r.get("psnr_clean"),  # missions run before it existed lack it
                 "elevation_deg": r["view_deg"][0], "azimuth_deg": r["view_deg"][1],
                 "time_plan_s": r["time_s"]["plan"], "time_train_s": r["time_s"]["train"],

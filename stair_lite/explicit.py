@@ -13,23 +13,33 @@ import torch
 from scipy.ndimage import distance_transform_edt
 
 from .classes import NUM_CLASSES
-from .config import ExplicitConfig
+from .config import ExplicitConfig, Preset
 from .geometry import Intrinsics, pixel_rays, view_to_pose
+from .lattice import VoxelGrid, xyz
+from .maps import EXPLICIT, ReconstructionMap
 from .measurement import Measurement
 from .rendering import ray_box_intersection
+from .training import Losses
 
 
 def logit(p: float) -> float:
     return float(np.log(p / (1.0 - p)))
 
 
-class ExplicitMap:
-    """A semantic occupancy grid over the scene cube (voxel (i, j, k) covers x in [-b + i v, -b + (i+1) v))."""
+class ExplicitMap(ReconstructionMap):
+    """A semantic occupancy grid over the scene cube, on a ``VoxelGrid`` (voxel (i, j, k) covers
+    x in [-b + i v, -b + (i+1) v)). Planners (STE's) read the map itself.
+
+    Its state is a function of its measurements (integration is deterministic), so ``state_dict`` is
+    empty: a resumed mission rebuilds the map by integrating the same measurements again."""
+
+    kind = EXPLICIT
 
     def __init__(self, cfg: ExplicitConfig = ExplicitConfig(), device: str | torch.device = "cpu"):
         self.cfg = cfg
         r = cfg.resolution
-        self.voxel = 2 * cfg.bound / r
+        self.grid = VoxelGrid(r, cfg.bound)
+        self.voxel = self.grid.voxel
         self.device = torch.device(device)
         self.log_odds = torch.zeros(r**3, device=self.device)
         self.observed = torch.zeros(r**3, dtype=torch.bool, device=self.device)
@@ -38,32 +48,32 @@ class ExplicitMap:
         self.l_hit, self.l_miss = logit(cfg.prob_hit), logit(cfg.prob_miss)
         self.l_min, self.l_max = logit(cfg.clamp_min), logit(cfg.clamp_max)
 
+    @classmethod
+    def from_preset(cls, preset: Preset, seed: int = 0, device="cpu") -> "ExplicitMap":
+        """The map of a preset (integration draws nothing at random: ``seed`` is not used)."""
+        return cls(preset.explicit, device=device)
+
     # ------------------------------------------------------------------ indexing
     def voxel_index(self, points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Flat voxel indices of points (..., 3) and whether each lies inside the grid."""
-        r = self.cfg.resolution
-        ijk = torch.floor((points + self.cfg.bound) / self.voxel).long()
-        inside = ((ijk >= 0) & (ijk < r)).all(dim=-1)
-        ijk = ijk.clamp(0, r - 1)
-        return (ijk[..., 2] * r + ijk[..., 1]) * r + ijk[..., 0], inside
+        return self.grid.cell_index(points)
 
     def _march(self, origins: torch.Tensor, dirs: torch.Tensor, t_end: torch.Tensor | None = None, step_voxels: float = 0.5):
         """Flat voxel indices (R, S) along rays from the cube entry to ``t_end`` (or the exit), sampled
         every ``step_voxels`` voxels, and which samples are valid (on the ray's stretch inside the cube)."""
-        b, r = self.cfg.bound, self.cfg.resolution
-        t_near, t_far, hit = ray_box_intersection(origins, dirs, b, near=0.0)
+        t_near, t_far, hit = ray_box_intersection(origins, dirs, self.grid.bound, near=0.0)
         if t_end is not None:
             t_far = torch.minimum(t_far, t_end)
-        o, d = (origins + b) / self.voxel, dirs / self.voxel  # voxel units: voxel (i, j, k) is [i, i+1) x ...
+        o, d = self.grid.to_voxel_units(origins), dirs / self.voxel
         step = step_voxels / d.norm(dim=1)
         n = int(torch.ceil(((t_far - t_near).clamp(min=0) / step).max()).item()) + 1 if len(origins) else 1
         t = t_near[:, None] + step[:, None] * torch.arange(n, device=self.device)
         valid = hit[:, None] & (t < t_far[:, None])
-        ijk = (o[:, None, :] + t[..., None] * d[:, None, :]).floor_().clamp_(0, r - 1).to(torch.int64)
-        return (ijk[..., 2] * r + ijk[..., 1]) * r + ijk[..., 0], valid
+        index, _ = self.grid.flat_from_voxel_units(o[:, None, :] + t[..., None] * d[:, None, :])
+        return index, valid
 
     # ------------------------------------------------------------------ mapping
-    def integrate(self, m: Measurement) -> None:
+    def add_measurement(self, m: Measurement) -> None:
         """Fuse one measurement: free space along every ray, occupied and labelled at its end point."""
         s = self.cfg.pixel_stride
         origins, dirs = pixel_rays(m.intrinsics, m.pose)
@@ -90,6 +100,10 @@ class ExplicitMap:
         self.class_counts.index_put_((idx, labels[hit][end_inside]), torch.ones(len(idx), device=self.device), accumulate=True)
         self.colour_sum.index_add_(0, idx, rgb[hit][end_inside])
 
+    def update(self) -> list[Losses]:
+        """Nothing to learn: a measurement is fused as it is added."""
+        return []
+
     # ------------------------------------------------------------------ queries
     @property
     def probability(self) -> torch.Tensor:
@@ -110,8 +124,7 @@ class ExplicitMap:
         """Occupancy probability with every non-target voxel set to 0, as an (R, R, R) array indexed [x, y, z]."""
         r = self.cfg.resolution
         keep = torch.isin(self.labels, torch.as_tensor(targets, device=self.device))
-        volume = (self.probability * keep).view(r, r, r).permute(2, 1, 0)
-        return volume.cpu().numpy()
+        return xyz((self.probability * keep).view(r, r, r)).cpu().numpy()
 
     def extract_target_mesh(self, targets, threshold: float = 0.5):
         """Marching cubes of the target-only occupancy, on voxel centres (None when nothing is occupied)."""
@@ -122,8 +135,21 @@ class ExplicitMap:
         if volume.max() <= threshold:
             return None
         verts, faces, _, _ = marching_cubes(np.pad(volume, 1), level=threshold, spacing=(self.voxel,) * 3)
-        verts = verts - self.voxel + (-self.cfg.bound + self.voxel / 2)
+        verts = verts - self.voxel + self.grid.first_centre()
         return trimesh.Trimesh(vertices=verts, faces=faces, process=False)
+
+    def target_mesh(self, targets):
+        return self.extract_target_mesh(targets)
+
+    def target_only_renders(self, intrinsics, poses, targets, z_min):
+        """First-hit renders; the same images twice: the map holds only voxels it has seen occupied, so
+        there is no unobserved volume under the ground to cut."""
+        renders = [self.render_target_only(intrinsics, p, targets) for p in poses]
+        return renders, renders
+
+    @property
+    def planning_source(self) -> "ExplicitMap":
+        return self
 
     @torch.no_grad()
     def render_target_only(self, intrinsics: Intrinsics, pose: np.ndarray, targets) -> np.ndarray:
@@ -139,7 +165,8 @@ class ExplicitMap:
         hit = solid[index] & valid
         first = hit.float().argmax(dim=1)
         any_hit = hit.any(dim=1)
-        colour = torch.where(any_hit[:, None], self.colours[index[torch.arange(len(index)), first]], torch.ones(1, 3))
+        colour = torch.where(any_hit[:, None], self.colours[index[torch.arange(len(index), device=self.device), first]],
+                             torch.ones(1, 3, device=self.device))
         return colour.view(intrinsics.height, intrinsics.width, 3).cpu().numpy()
 
     # ------------------------------------------------------------------ planning (the ROI utility)
@@ -158,7 +185,7 @@ class ExplicitMap:
         else:
             bonus = torch.zeros(r**3, device=self.device)
         # one table: the score of an unknown voxel, 0 for a known free one, -1 marks an occupied one
-        table = torch.where(self.observed, torch.zeros(1), 0.5 + bonus)
+        table = torch.where(self.observed, torch.zeros(1, device=self.device), 0.5 + bonus)
         table = torch.where(self.probability > 0.5, torch.full_like(table, -1.0), table)
         k = Intrinsics.from_fov().scaled(cfg.candidate_scale)
         scores = []

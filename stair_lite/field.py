@@ -2,9 +2,9 @@
 interpolation (Eq. 1), a positional encoding gamma, and heads for occupancy, colour and semantics.
 
 Introduced in notebook 02 (occupancy and colour) and notebook 03 (semantics).
-Grid layout: the grids are stored channels-last as one table of shape (R^3, C): row (k R + j) R + i
-holds the features of vertex (x_i, y_j, z_k). Vertices sit on the cube's corners, so vertex i is at
-x = -bound + i * 2 bound / (R - 1), the convention of ``F.grid_sample(..., align_corners=True)``.
+Grid layout: the grids are stored channels-last as one table of shape (R^3, C) over the field's
+``Lattice`` (lattice.py): row (k R + j) R + i holds the features of vertex (x_i, y_j, z_k), and vertex i
+is at x = -bound + i * 2 bound / (R - 1), the convention of ``F.grid_sample(..., align_corners=True)``.
 A hand-written trilinear lookup with its own backward pass (a scatter-add into the touched rows)
 is about twice as fast on a CPU as ``grid_sample`` and gives the same numbers (notebook 02 checks).
 """
@@ -14,7 +14,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from .config import FieldConfig
+from .config import FieldConfig, TrainConfig
+from .lattice import Lattice, flat_index
 
 
 def positional_encoding(x: torch.Tensor, n_frequencies: int) -> torch.Tensor:
@@ -34,7 +35,7 @@ def corner_indices_and_weights(x_normalised: torch.Tensor, resolution: int) -> t
     i0 = p.floor().clamp(0, r - 2)
     f = p - i0
     i0 = i0.long()
-    base = (i0[:, 2] * r + i0[:, 1]) * r + i0[:, 0]
+    base = flat_index(i0[:, 0], i0[:, 1], i0[:, 2], r)
     offsets = torch.tensor([0, 1, r, r + 1, r * r, r * r + 1, r * r + r, r * r + r + 1], device=x_normalised.device)
     fx, fy, fz = f[:, 0:1], f[:, 1:2], f[:, 2:3]
     gx, gy, gz = 1 - fx, 1 - fy, 1 - fz
@@ -87,6 +88,7 @@ class SemanticField(nn.Module):
     def __init__(self, cfg: FieldConfig, seed: int = 0):
         super().__init__()
         self.cfg = cfg
+        self.lattice = Lattice(cfg.grid_resolution, cfg.bound)  # the field owns its world-to-grid mapping
         r = cfg.grid_resolution
         channels = cfg.occ_channels + cfg.rgb_channels + cfg.sem_channels
         self.grid = nn.Parameter(torch.zeros(r**3, channels))
@@ -121,13 +123,14 @@ class SemanticField(nn.Module):
     def device(self) -> torch.device:
         return self.grid.device
 
-    def normalise(self, x: torch.Tensor) -> torch.Tensor:
-        """World coordinates in the scene cube -> [-1, 1]^3."""
-        return x / self.cfg.bound
+    def param_groups(self, cfg: TrainConfig) -> list[dict]:
+        """The optimiser's parameter groups: the grids at ``lr_grid``, the MLPs at ``lr_mlp``."""
+        mlps = list(self.occ_mlp.parameters()) + list(self.rgb_mlp.parameters())
+        return [{"params": [self.grid], "lr": cfg.lr_grid}, {"params": mlps, "lr": cfg.lr_mlp}]
 
     def features(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """(f_occ, f_rgb, f_sem, gamma(x)) at world points x (N, 3)."""
-        xn = self.normalise(x)
+        xn = self.lattice.normalise(x)
         f = trilinear(self.grid, self.cfg.grid_resolution, xn)
         f_occ, f_rgb, f_sem = torch.split(f, self._splits, dim=1)
         return f_occ, f_rgb, f_sem, positional_encoding(xn, self.cfg.pe_frequencies)

@@ -1,8 +1,9 @@
 """Next-best-view planners behind one small interface (paper Sec. III-C and IV-B).
 
-Introduced in notebooks 04 and 05. A planner sees the map (a trained SemanticField) and the views
-visited so far and returns the next view (elevation, azimuth) with whatever it scored on the way.
-Every mission starts from the top view; planners never return a view already visited.
+Introduced in notebooks 04 and 05. A planner sees what it reads of the map (``reads``: the trained
+SemanticField of the implicit map, the voxel map itself for STE, nothing for the map-free baselines) and
+the views visited so far, and returns the next view (elevation, azimuth) with whatever it scored on the
+way. Every mission starts from the top view; planners never return a view already visited.
 
   stair        U = U_et + epsilon U_er, two-stage candidates (N_uni uniform, top K, N_re around each)
   exploration  the same candidates scored by U_er alone
@@ -14,11 +15,13 @@ Every mission starts from the top view; planners never return a view already vis
 """
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from .config import PlanConfig
+from .config import PlanConfig, Preset
 from .geometry import (
     Intrinsics,
     angular_distance,
@@ -34,12 +37,23 @@ MIN_SEPARATION = float(np.arccos(1.0 - 0.01))
 
 
 @dataclass
+class ROIScores:
+    """Per-view scores of the STE planner: its region-of-interest utility (``ExplicitMap.roi_scores``)."""
+
+    ste_utility: np.ndarray
+
+    def columns(self, i: int) -> dict[str, float]:
+        """The score of candidate ``i``, named as a mission record's column."""
+        return {"ste_utility": float(self.ste_utility[i])}
+
+
+@dataclass
 class Decision:
     """A planner's choice and what it saw: all scored candidates and their scores (if any)."""
 
     view: np.ndarray
     candidates: np.ndarray | None = None
-    scores: Scores | None = None
+    scores: Scores | ROIScores | None = None
     chosen_index: int | None = None
     info: dict = field(default_factory=dict)
 
@@ -52,18 +66,25 @@ def far_enough(candidates: np.ndarray, visited: np.ndarray, min_separation: floa
 
 
 class Planner:
-    """Interface: ``next_view(field, visited, targets)`` -> Decision. ``needs_field`` tells the mission
-    whether planning reads the map (so a snapshot is worth computing)."""
+    """Interface: ``next_view(source, visited, targets)`` -> Decision, where ``source`` is what the
+    planner ``reads`` (the ``planning_source`` of the map of that kind, or None). Its state is its
+    random generator (``state_dict``)."""
 
     name = "planner"
-    needs_field = False
+    reads: str | None = None  # the kind of map it plans on ("implicit", "explicit"), or None
 
     def __init__(self, cfg: PlanConfig, rng: np.random.Generator):
         self.cfg = cfg
         self.rng = rng
 
-    def next_view(self, field, visited: np.ndarray, targets: tuple[int, ...]) -> Decision:
+    def next_view(self, source, visited: np.ndarray, targets: tuple[int, ...]) -> Decision:
         raise NotImplementedError
+
+    def state_dict(self) -> dict:
+        return {"rng": self.rng.bit_generator.state}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.rng.bit_generator.state = state["rng"]
 
 
 class UtilityPlanner(Planner):
@@ -71,12 +92,12 @@ class UtilityPlanner(Planner):
     by a random azimuth each step), the top K by utility, N_re views resampled around each of them
     at 0.1-0.5 rad, and the best of all; views too close to a visited one are never chosen."""
 
-    needs_field = True
+    reads = "implicit"
 
-    def __init__(self, cfg: PlanConfig, rng: np.random.Generator, options: UtilityOptions, exploration_only: bool = False,
-                 exact: bool = False):
+    def __init__(self, cfg: PlanConfig, rng: np.random.Generator, options: UtilityOptions | None = None,
+                 exploration_only: bool = False, exact: bool = False):
         super().__init__(cfg, rng)
-        self.options = options
+        self.options = options or UtilityOptions(epsilon=cfg.epsilon)
         self.exploration_only = exploration_only
         self.exact = exact
         self.name = "exploration" if exploration_only else "stair"
@@ -111,7 +132,7 @@ class FixedPatternPlanner(Planner):
 
     name = "fixed"
 
-    def __init__(self, cfg: PlanConfig, rng: np.random.Generator, budget: int = 10):
+    def __init__(self, cfg: PlanConfig, rng: np.random.Generator, budget: int):
         super().__init__(cfg, rng)
         spiral = fibonacci_hemisphere(max(budget, 2), azimuth_offset=rng.uniform(0, 2 * np.pi))
         self.sequence = spiral[:-1][::-1]
@@ -154,9 +175,9 @@ class STEPlanner(Planner):
     sampling is biased) and, like the others, never within 8.1 degrees of a visited view."""
 
     name = "ste"
-    needs_field = True
+    reads = "explicit"
 
-    def __init__(self, cfg: PlanConfig, rng: np.random.Generator, n_candidates: int = 100):
+    def __init__(self, cfg: PlanConfig, rng: np.random.Generator, n_candidates: int):
         super().__init__(cfg, rng)
         self.n_candidates = n_candidates
 
@@ -164,8 +185,7 @@ class STEPlanner(Planner):
         candidates = random_hemisphere(self.n_candidates, self.rng)
         utility = explicit_map.roi_scores(candidates, targets)
         best = int(np.argmax(np.where(far_enough(candidates, visited), utility, -np.inf)))
-        return Decision(view=candidates[best], candidates=candidates, chosen_index=best,
-                        scores=Scores(exploration=utility, exploitation=utility, utility=utility))
+        return Decision(view=candidates[best], candidates=candidates, chosen_index=best, scores=ROIScores(utility))
 
 
 class ReplayPlanner(Planner):
@@ -182,25 +202,43 @@ class ReplayPlanner(Planner):
             raise ValueError(f"the replayed mission has only {len(self.views)} views")
         return Decision(view=self.views[len(visited)])
 
+    @classmethod
+    def from_file(cls, cfg: PlanConfig, rng: np.random.Generator, path: str | Path, budget: int) -> "ReplayPlanner":
+        """Follow the views of a mission's ``metrics.json``; it must hold at least ``budget`` of them."""
+        stored = json.loads(Path(path).read_text())
+        views = np.array([r["view_rad"] for r in stored["steps"]])
+        if len(views) < budget:
+            raise ValueError(f"{path} holds {len(views)} views, fewer than the budget {budget}")
+        return cls(cfg, rng, views)
 
-PLANNERS = ("stair", "exploration", "fixed", "max_distance", "uniform", "ste")
+
+# The planners that choose views, by name (the one list; sweeps build their variants on it, experiments.py),
+# and the replay planner, which follows a recorded mission's views (the paper's cross-validation).
+PLANNERS = {"stair": UtilityPlanner, "exploration": UtilityPlanner, "fixed": FixedPatternPlanner,
+            "max_distance": MaxViewDistancePlanner, "uniform": UniformPlanner, "ste": STEPlanner}
+REPLAY = "replay"
 
 
-def make_planner(name: str, cfg: PlanConfig, seed: int, epsilon: float | None = None, budget: int = 10,
-                 options: UtilityOptions | None = None, n_ste_candidates: int = 100) -> Planner:
-    """Build a planner by name, with its own seeded random generator."""
-    if name not in PLANNERS:
-        raise ValueError(f"unknown planner {name!r}; choose one of {', '.join(PLANNERS)}")
-    rng = np.random.default_rng(seed)
-    if name == "ste":
-        return STEPlanner(cfg, rng, n_ste_candidates)
-    options = options or UtilityOptions(epsilon=cfg.epsilon if epsilon is None else epsilon)
-    if name == "stair":
-        return UtilityPlanner(cfg, rng, options)
-    if name == "exploration":
-        return UtilityPlanner(cfg, rng, options, exploration_only=True)
-    if name == "fixed":
-        return FixedPatternPlanner(cfg, rng, budget)
-    if name == "max_distance":
-        return MaxViewDistancePlanner(cfg, rng)
-    return UniformPlanner(cfg, rng)
+def planner_class(name: str, replay: str | Path | None = None) -> type[Planner]:
+    """The class behind a planner name; a clear error for an unknown one, or for a replay file given
+    to another planner than ``replay`` (or missing for it)."""
+    if name != REPLAY and name not in PLANNERS:
+        raise ValueError(f"unknown planner {name!r}; choose one of {', '.join((*PLANNERS, REPLAY))}")
+    if (name == REPLAY) != (replay is not None):
+        raise ValueError("planner 'replay' needs a replay file, and a replay file needs planner 'replay'")
+    return ReplayPlanner if name == REPLAY else PLANNERS[name]
+
+
+def make_planner(name: str, preset: Preset, seed: int, replay: str | Path | None = None) -> Planner:
+    """Build a planner by name from a preset (its plan config, budget and STE candidate count), with its
+    own seeded random generator; ``replay``: the metrics.json whose views the ``replay`` planner follows."""
+    cls, cfg, rng = planner_class(name, replay), preset.plan, np.random.default_rng(seed)
+    if cls is UtilityPlanner:
+        return UtilityPlanner(cfg, rng, exploration_only=name == "exploration")
+    if cls is FixedPatternPlanner:
+        return FixedPatternPlanner(cfg, rng, preset.budget)
+    if cls is STEPlanner:
+        return STEPlanner(cfg, rng, preset.explicit.n_candidates)
+    if cls is ReplayPlanner:
+        return ReplayPlanner.from_file(cfg, rng, replay, preset.budget)
+    return cls(cfg, rng)

@@ -7,6 +7,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from .classes import CLASS_COLOURS, CLASS_NAMES, colourise_labels
 from .geometry import HEMISPHERE_RADIUS, view_to_position
+from .lattice import CUBE_BOUND
 
 
 def show_measurement(m, title: str = "", axes=None):
@@ -47,7 +48,7 @@ def draw_scene(ax, scene, ground: bool = False):
         draw_mesh(ax, mesh)
     if ground:
         draw_mesh(ax, scene.ground, alpha=0.3)
-    set_equal_3d(ax, 1.5, z_range=(0.0, 1.2))
+    set_equal_3d(ax, CUBE_BOUND, z_range=(0.0, 1.2))
 
 
 def set_equal_3d(ax, half: float, z_range=(0.0, None)):

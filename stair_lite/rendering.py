@@ -13,6 +13,7 @@ import torch
 from .classes import BACKGROUND, NUM_CLASSES
 from .config import RenderConfig
 from .geometry import Intrinsics, pixel_rays
+from .lattice import Lattice
 
 
 def ray_box_intersection(origins: torch.Tensor, dirs: torch.Tensor, bound: float, near: float):
@@ -69,41 +70,43 @@ def compositing_weights(occ: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 class SkipGrid:
-    """Empty-space skipping: a boolean lattice over the cube marking where the field may be occupied.
+    """Empty-space skipping: which vertices of a ``Lattice`` over the cube may be occupied.
 
-    Built from the field itself (``build_skip_grid``); samples in cells marked False are treated as
-    empty (o = 0) without evaluating the field. Dilation by one cell keeps it conservative, and a
-    test compares skipped renders with exact ones.
+    Built from the field itself (``build_skip_grid``); samples whose nearest vertex is not kept are
+    treated as empty (o = 0) without evaluating the field. Dilation by one cell keeps it conservative,
+    and a test compares skipped renders with exact ones.
     """
 
-    def __init__(self, keep: torch.Tensor, bound: float):
-        self.keep = keep  # (R, R, R) bool, indexed [z, y, x] like the field's grids
-        self.bound = bound
+    def __init__(self, keep: torch.Tensor, lattice: Lattice):
+        self.keep = keep.reshape(-1)  # (R^3,) bool, in the lattice's flat order
+        self.lattice = lattice
 
     def lookup(self, points: torch.Tensor) -> torch.Tensor:
         """Whether each point (..., 3) lies in a kept cell (nearest lattice vertex)."""
-        r = self.keep.shape[0]
-        idx = ((points / self.bound + 1.0) * 0.5 * (r - 1)).round().long().clamp(0, r - 1)
-        return self.keep[idx[..., 2], idx[..., 1], idx[..., 0]]
+        return self.keep[self.lattice.nearest_index(points)]
+
+    def above(self, z_min: float) -> "SkipGrid":
+        """This grid without the vertex layers below height ``z_min``."""
+        r = self.lattice.resolution
+        layer_kept = (self.lattice.axis(self.keep.device) >= z_min).repeat_interleave(r * r)
+        return SkipGrid(self.keep & layer_kept, self.lattice)
 
 
 @torch.no_grad()
 def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: float = 1e-3) -> SkipGrid:
-    """Keep the cells near a vertex with occupancy above ``threshold`` and (with ``targets``) near a
-    vertex whose class argmax is a target; both masks are dilated by one cell, because a sample
-    between vertices mixes them. Target-only renders then touch only the target objects."""
-    r, b = field.cfg.grid_resolution, field.cfg.bound
-    axis = torch.linspace(-b, b, r, device=field.device)
-    z, y, x = torch.meshgrid(axis, axis, axis, indexing="ij")
-    q = field.query(torch.stack([x, y, z], dim=-1).reshape(-1, 3))
+    """Mark the field's lattice vertices with occupancy above ``threshold`` (and, with ``targets``, a
+    target class as semantic argmax), dilated by one vertex so that no occupied space is skipped."""
+    lattice = field.lattice
+    r = lattice.resolution
+    q = field.query(lattice.points(field.device))
 
     def dilate(mask):
-        return torch.nn.functional.max_pool3d(mask.view(1, 1, r, r, r).float(), 3, stride=1, padding=1).view(r, r, r) > 0
+        return torch.nn.functional.max_pool3d(mask.view(1, 1, r, r, r).float(), 3, stride=1, padding=1).view(-1) > 0
 
     keep = dilate(q["occ"] > threshold)
     if targets is not None:
         keep &= dilate(torch.isin(q["sem"].argmax(dim=1), torch.as_tensor(targets, device=field.device)))
-    return SkipGrid(keep, b)
+    return SkipGrid(keep, lattice)
 
 
 def render_rays(
@@ -126,7 +129,7 @@ def render_rays(
     Colour and class probabilities are evaluated only at samples whose weight exceeds
     ``colour_weight_threshold`` (the others cannot change the pixel).
     """
-    t_near, t_far, hit = ray_box_intersection(origins, dirs, field.cfg.bound, cfg.near)
+    t_near, t_far, hit = ray_box_intersection(origins, dirs, field.lattice.bound, cfg.near)
     t_far = torch.where(hit, t_far, t_near + 1e-3)
     t = sample_along_rays(
         t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
@@ -202,3 +205,10 @@ def render_image(
         "sem": cat["sem"].view(h, w, -1).cpu().numpy(),
         "acc": cat["acc"].view(h, w).cpu().numpy(),
     }
+
+
+def render_target_views(field, intrinsics: Intrinsics, poses: list[np.ndarray], cfg: RenderConfig,
+                        targets: tuple[int, ...], skip: SkipGrid | None = None) -> list[np.ndarray]:
+    """Target-only colour renders (H, W, 3) of the field at each pose (paper Sec. IV-A); ``skip`` leaves
+    out the lattice cells it does not keep."""
+    return [render_image(field, intrinsics, p, cfg, targets=targets, skip=skip)["rgb"] for p in poses]

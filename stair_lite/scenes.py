@@ -1,7 +1,7 @@
 """Scene specifications (small JSON files), scene building, the random scene generator and ground truth.
 
 Introduced in notebook 01. A scene is a few class meshes standing on a ground plane (class 0) at
-z = 0 inside the cube [-1.5, 1.5]^3, plus the scene's default target classes (the paper's Sec. IV-A).
+z = 0 inside the scene cube (``lattice.CUBE_BOUND``), plus the scene's default target classes (the paper's Sec. IV-A).
 Colour is baked into the mesh faces with a world-fixed Lambert light, so what the camera sees of
 a surface does not depend on the viewpoint: the field has no view dependence either.
 """
@@ -16,11 +16,11 @@ import numpy as np
 import trimesh
 
 from .classes import BACKGROUND, CLASS_NAMES, class_id, target_ids
+from .lattice import CUBE_BOUND
 from .meshes import class_mesh
 
 SCENE_DIR = Path(__file__).resolve().parent.parent / "data" / "scenes"
-CUBE_HALF = 1.5  # the scene cube is [-1.5, 1.5]^3
-GROUND_SIZE = 3.0
+GROUND_SIZE = 2 * CUBE_BOUND  # the ground slab fills the cube's floor
 GROUND_THICKNESS = 0.04
 GROUND_COLOUR = (0.62, 0.60, 0.55)
 LIGHT_DIRECTION = np.array([0.35, 0.55, 1.0]) / np.linalg.norm([0.35, 0.55, 1.0])  # towards the light
@@ -219,10 +219,10 @@ def build_scene(spec: SceneSpec) -> Scene:
         mesh.apply_transform(yaw)
         mesh.apply_translation((obj.position[0], obj.position[1], 0.0))
         lo, hi = mesh.bounds
-        if np.any(lo < -CUBE_HALF) or np.any(hi > CUBE_HALF):
+        if np.any(lo < -CUBE_BOUND) or np.any(hi > CUBE_BOUND):
             raise ValueError(
                 f"object {index} ({obj.class_name}) at position {list(obj.position)} extends outside the scene cube "
-                f"[-{CUBE_HALF}, {CUBE_HALF}]^3: bounds {np.round(lo, 3).tolist()} .. {np.round(hi, 3).tolist()}"
+                f"[-{CUBE_BOUND}, {CUBE_BOUND}]^3: bounds {np.round(lo, 3).tolist()} .. {np.round(hi, 3).tolist()}"
             )
         for other, other_mesh in enumerate(placed):
             if meshes_interpenetrate(mesh, other_mesh):

@@ -21,41 +21,87 @@ LOG_CLAMP = 1e-6  # probabilities are clamped before log(): cross entropy stays 
 
 
 class RayBuffer:
-    """Every ray measured so far (origin, direction, rgb, depth, label), with per-ray use counts."""
+    """Every ray measured so far, stored once: origin, direction, rgb, depth (one float32 row of 10) and
+    label, with per-ray use counts. 45 bytes per ray (``BYTES_PER_RAY``): 7.2 MB per 400x400 view.
+
+    Rows live in arrays whose capacity doubles when full, so appending a view costs amortised constant
+    time per ray (no earlier ray is copied again), and a view's rays are the contiguous rows from its
+    start offset on.
+    """
+
+    FLOATS = ("origins", 3), ("dirs", 3), ("rgb", 3), ("depth", 1)  # the float32 columns, in row order
+    BYTES_PER_RAY = 10 * 4 + 1 + 4  # floats, uint8 label, int32 use count
 
     def __init__(self):
-        self._parts: list[dict[str, np.ndarray]] = []
-        self.use_counts = np.zeros(0, dtype=np.int64)
-        self.view_index = np.zeros(0, dtype=np.int64)
+        self._floats = np.zeros((0, 10), dtype=np.float32)
+        self._labels = np.zeros(0, dtype=np.uint8)
+        self._counts = np.zeros(0, dtype=np.int32)
+        self._size = 0
+        self.view_starts: list[int] = []  # buffer index of each view's first ray
 
     def __len__(self) -> int:
-        return len(self.use_counts)
+        return self._size
 
     @property
     def n_views(self) -> int:
-        return len(self._parts)
+        return len(self.view_starts)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the buffer's arrays (capacity included)."""
+        return self._floats.nbytes + self._labels.nbytes + self._counts.nbytes
+
+    @property
+    def use_counts(self) -> np.ndarray:
+        """How often each ray has been trained on (a view of the stored counts: writes go through)."""
+        return self._counts[: self._size]
+
+    @use_counts.setter
+    def use_counts(self, counts: np.ndarray) -> None:
+        if len(counts) != self._size:
+            raise ValueError(f"{len(counts)} use counts for a buffer of {self._size} rays")
+        self._counts[: self._size] = counts
+
+    def _reserve(self, n: int) -> None:
+        capacity = len(self._labels)
+        if self._size + n <= capacity:
+            return
+        capacity = max(self._size + n, 2 * capacity)
+        for name in ("_floats", "_labels", "_counts"):
+            old = getattr(self, name)
+            new = np.zeros((capacity,) + old.shape[1:], dtype=old.dtype)
+            new[: self._size] = old[: self._size]
+            setattr(self, name, new)
 
     def add(self, m: Measurement) -> None:
         """Append all rays of one measurement (checked by the Measurement record itself)."""
         origins, dirs = pixel_rays(m.intrinsics, m.pose)
-        part = {
-            "origins": origins.astype(np.float32),
-            "dirs": dirs.astype(np.float32),
-            "rgb": m.rgb.reshape(-1, 3).astype(np.float32),
-            "depth": m.depth.reshape(-1).astype(np.float32),
-            "labels": m.labels.reshape(-1).astype(np.int64),
-        }
-        self._parts.append(part)
-        self._all = {k: np.concatenate([p[k] for p in self._parts]) for k in part}
-        self.use_counts = np.concatenate([self.use_counts, np.zeros(len(origins), dtype=np.int64)])
-        self.view_index = np.concatenate([self.view_index, np.full(len(origins), self.n_views - 1)])
+        n = len(origins)
+        self._reserve(n)
+        rows = slice(self._size, self._size + n)
+        self._floats[rows] = np.concatenate([origins, dirs, m.rgb.reshape(-1, 3), m.depth.reshape(-1, 1)], axis=1)
+        self._labels[rows] = m.labels.reshape(-1)
+        self._counts[rows] = 0
+        self.view_starts.append(self._size)
+        self._size += n
 
     def rays(self, index: np.ndarray) -> dict[str, np.ndarray]:
-        """The rays at the given buffer indices."""
-        return {k: v[index] for k, v in self._all.items()}
+        """The rays at the given buffer indices (labels as int64, ready for indexing)."""
+        floats, out, column = self._floats[index], {}, 0
+        for name, width in self.FLOATS:
+            out[name] = floats[:, column] if width == 1 else floats[:, column : column + width]
+            column += width
+        out["labels"] = self._labels[index].astype(np.int64)
+        return out
+
+    @property
+    def view_index(self) -> np.ndarray:
+        """The view number of every ray (0 for the first measurement), computed on demand."""
+        lengths = np.diff(np.r_[self.view_starts, self._size]).astype(np.int64)
+        return np.repeat(np.arange(self.n_views), lengths)
 
     def newest_indices(self) -> np.ndarray:
-        return np.flatnonzero(self.view_index == self.n_views - 1)
+        return np.arange(self.view_starts[-1], self._size) if self.view_starts else np.zeros(0, dtype=np.int64)
 
     def replay_indices(self, n: int, rng: np.random.Generator) -> np.ndarray:
         """Draw ``n`` distinct rays of earlier views, P(ray) proportional to 1 / (1 + times used).
@@ -63,12 +109,12 @@ class RayBuffer:
         Weighted sampling without replacement by the exponential-keys method: key = E / weight with
         E ~ Exp(1); the n smallest keys are a weighted sample (Efraimidis and Spirakis).
         """
-        old = np.flatnonzero(self.view_index < self.n_views - 1)
-        if len(old) == 0 or n <= 0:
+        n_old = self.view_starts[-1] if self.view_starts else 0
+        if n_old == 0 or n <= 0:
             return np.zeros(0, dtype=np.int64)
-        keys = rng.exponential(size=len(old)) * (1.0 + self.use_counts[old])
-        n = min(n, len(old))
-        return old[np.argpartition(keys, n - 1)[:n]]
+        keys = rng.exponential(size=n_old) * (1.0 + self._counts[:n_old])
+        n = min(n, n_old)
+        return np.argpartition(keys, n - 1)[:n]
 
 
 @dataclass
@@ -107,13 +153,23 @@ class Trainer:
         self.buffer = RayBuffer()
         self.rng = np.random.default_rng(seed)
         self.generator = torch.Generator(device=field.device).manual_seed(seed)
-        mlp_params = list(field.occ_mlp.parameters()) + list(field.rgb_mlp.parameters())
-        self.optimizer = torch.optim.Adam(
-            [{"params": [field.grid], "lr": train_cfg.lr_grid}, {"params": mlp_params, "lr": train_cfg.lr_mlp}],
-            betas=(0.9, 0.99),
-            fused=True,
-        )
+        self.optimizer = torch.optim.Adam(field.param_groups(train_cfg), betas=(0.9, 0.99), fused=True)
         self.iterations = 0
+
+    def state_dict(self) -> dict:
+        """What training needs to continue exactly (the field's weights and the rays are kept elsewhere):
+        the optimiser, both random generators, the rays' use counts and the iteration count."""
+        return {"optimizer": self.optimizer.state_dict(), "rng": self.rng.bit_generator.state,
+                "generator": self.generator.get_state(), "use_counts": self.buffer.use_counts.copy(),
+                "iterations": self.iterations}
+
+    def load_state_dict(self, state: dict) -> None:
+        """Continue from ``state_dict()``; the buffer must already hold the same rays again."""
+        self.optimizer.load_state_dict(state["optimizer"])
+        self.rng.bit_generator.state = state["rng"]
+        self.generator.set_state(state["generator"])
+        self.buffer.use_counts = state["use_counts"]
+        self.iterations = state["iterations"]
 
     def add_measurement(self, m: Measurement) -> None:
         """Store a new measurement; the next ``update`` trains on it."""

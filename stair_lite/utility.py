@@ -21,8 +21,10 @@ import torch
 import torch.nn.functional as F
 
 from .classes import BACKGROUND, NUM_CLASSES
+from .config import PlanConfig, check_epsilon
 from .field import trilinear
 from .geometry import Intrinsics, pixel_rays, view_to_pose
+from .lattice import Lattice
 from .rendering import compositing_weights, ray_box_intersection, sample_along_rays
 
 def point_entropy(occ: torch.Tensor) -> torch.Tensor:
@@ -41,42 +43,36 @@ class UtilityOptions:
     ``mask_dilation``: grow the target mask by this many pixels (the reference uses 2 at 400 px).
     """
 
-    epsilon: float = 0.2
+    epsilon: float = PlanConfig.epsilon
     saturating_rays: bool = False
     delete_background: bool = False
     mask_dilation: int = 0
 
     def __post_init__(self):
-        if not self.epsilon >= 0:
-            raise ValueError(f"epsilon must be >= 0, got {self.epsilon!r}")
+        check_epsilon(self.epsilon)
         if self.mask_dilation < 0:
             raise ValueError(f"mask_dilation must be >= 0 pixels, got {self.mask_dilation!r}")
 
 
 class FieldSnapshot:
-    """The field frozen for one planning step: occupancy, point entropy and class probabilities on a
-    lattice of ``resolution``^3 vertices (the field's own grid by default), stored like the field's
-    grids (row (k R + j) R + i for vertex (x_i, y_j, z_k)). ``lookup`` reads the nearest vertex, or
-    interpolates trilinearly with ``trilinear=True`` (closer to the field, about 3x slower)."""
+    """The field frozen for one planning step: occupancy, point entropy and class probabilities at the
+    vertices of a ``Lattice`` of ``resolution``^3 (the field's own by default), in the lattice's flat
+    order. ``lookup`` reads the nearest vertex, or interpolates trilinearly with ``trilinear=True``
+    (closer to the field, about 3x slower)."""
 
     def __init__(self, field, resolution: int | None = None, trilinear: bool = False):
-        r = resolution or field.cfg.grid_resolution
-        b = field.cfg.bound
-        axis = torch.linspace(-b, b, r, device=field.device)
-        z, y, x = torch.meshgrid(axis, axis, axis, indexing="ij")
-        q = field.query(torch.stack([x, y, z], dim=-1).reshape(-1, 3))
-        self.resolution, self.bound, self.device, self.trilinear = r, b, field.device, trilinear
+        self.lattice = Lattice(resolution or field.lattice.resolution, field.lattice.bound)
+        self.device, self.trilinear = field.device, trilinear
+        q = field.query(self.lattice.points(field.device))
         # one table per vertex: occupancy, entropy, class probabilities
         self.table = torch.cat([q["occ"][:, None], point_entropy(q["occ"])[:, None], q["sem"]], dim=1)
 
     def lookup(self, points: torch.Tensor) -> torch.Tensor:
         """(..., 2 + P) values at each point: of the nearest lattice vertex, or trilinearly interpolated."""
-        r = self.resolution
         if self.trilinear:
-            flat = trilinear(self.table, r, points.reshape(-1, 3) / self.bound)
+            flat = trilinear(self.table, self.lattice.resolution, self.lattice.normalise(points.reshape(-1, 3)))
             return flat.view(*points.shape[:-1], -1)
-        idx = ((points / self.bound + 1.0) * 0.5 * (r - 1)).round().long().clamp(0, r - 1)
-        return self.table[(idx[..., 2] * r + idx[..., 1]) * r + idx[..., 0]]
+        return self.table[self.lattice.nearest_index(points)]
 
 
 def exact_samples(field, points: torch.Tensor) -> torch.Tensor:
@@ -100,8 +96,7 @@ def render_uncertainty(
     ``source`` is a FieldSnapshot (fast) or a SemanticField (exact: the field runs at every sample).
     """
     snapshot = isinstance(source, FieldSnapshot)
-    device = source.device
-    bound = source.bound if snapshot else source.cfg.bound
+    device, bound = source.device, source.lattice.bound
     rays = [pixel_rays(intrinsics, p) for p in poses]
     origins = torch.as_tensor(np.concatenate([o for o, _ in rays]), dtype=torch.float32, device=device)
     dirs = torch.as_tensor(np.concatenate([d for _, d in rays]), dtype=torch.float32, device=device)
@@ -137,6 +132,11 @@ class Scores:
     exploration: np.ndarray
     exploitation: np.ndarray
     utility: np.ndarray
+
+    def columns(self, i: int) -> dict[str, float]:
+        """The scores of candidate ``i``, named as a mission record's columns."""
+        return {"utility": float(self.utility[i]), "exploitation": float(self.exploitation[i]),
+                "exploration": float(self.exploration[i])}
 
 
 def score_views(

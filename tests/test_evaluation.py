@@ -6,6 +6,8 @@ import trimesh
 import stair_lite  # noqa: F401
 from stair_lite.config import FieldConfig, get_preset
 from stair_lite.evaluation import Evaluator, extract_mesh, mesh_scores, psnr
+from stair_lite.lattice import CUBE_BOUND, Lattice
+from stair_lite.maps import ImplicitMap
 from stair_lite.scenes import load_scene
 from stair_lite.simulator import Simulator
 
@@ -20,6 +22,7 @@ class SphereField:
     """A stand-in field: occupancy 1 inside a sphere, class 1 (car) there, background elsewhere."""
 
     cfg = FieldConfig(grid_resolution=8)
+    lattice = Lattice(8)
     device = torch.device("cpu")
 
     def __init__(self, centre, radius):
@@ -35,7 +38,7 @@ class SphereField:
 def test_extracted_mesh_sits_on_the_occupied_boundary():
     field = SphereField((0.2, -0.1, 0.6), 0.4)
     mesh = extract_mesh(field, resolution=96, targets=(1,))
-    spacing = 3.0 / 95
+    spacing = 2 * CUBE_BOUND / 95
     r = np.linalg.norm(mesh.vertices - np.array([0.2, -0.1, 0.6]), axis=1)
     assert np.all(np.abs(r - 0.4) < spacing)
     assert extract_mesh(field, resolution=64, targets=(2,)) is None  # no chair anywhere
@@ -60,28 +63,29 @@ def test_evaluator_rejects_targets_not_in_the_scene():
 
 
 def test_skipping_empty_space_matches_the_exact_render():
-    from stair_lite.field import SemanticField
-    from stair_lite.geometry import fibonacci_hemisphere, view_to_pose
-    from stair_lite.training import Trainer
-    from stair_lite.config import TrainConfig, EvalConfig
     from dataclasses import replace
+
+    from stair_lite.config import EvalConfig, TrainConfig
+    from stair_lite.geometry import fibonacci_hemisphere, view_to_pose
+    from stair_lite.rendering import build_skip_grid, render_target_views
 
     preset = replace(get_preset("lite"), field=FieldConfig(grid_resolution=32, rgb_hidden=(32, 32)),
                      train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=40),
                      eval=EvalConfig(n_test_views=4, image_scale=0.2, mesh_resolution=64, mesh_points=20000))
     scene = load_scene("scene1")
     sim = Simulator(scene)
-    field = SemanticField(preset.field, seed=0)
-    trainer = Trainer(field, preset.train, preset.render, seed=0)
+    implicit = ImplicitMap.from_preset(preset, seed=0)
     for el, az in fibonacci_hemisphere(3, azimuth_offset=0.3):
-        trainer.add_measurement(sim.render(view_to_pose(el, az)))
-        trainer.update()
+        implicit.integrate(sim.render(view_to_pose(el, az)))
     evaluator = Evaluator(sim, scene.targets, preset)
-    fast, exact = evaluator.render_test_views(field, True), evaluator.render_test_views(field, False)
+    field, views = implicit.field, (evaluator.intrinsics, evaluator.poses, preset.render, scene.targets)
+    fast = render_target_views(field, *views, skip=build_skip_grid(field, scene.targets))
+    exact = render_target_views(field, *views)
     for f, e, gt in zip(fast, exact, evaluator.gt_images):
         assert np.mean(np.abs(f - e).max(axis=-1) > 1e-3) < 2e-3
         assert psnr(f, gt) == pytest.approx(psnr(e, gt), abs=0.05)
-    result = evaluator.evaluate(field)
+    assert np.array_equal(implicit.target_only_renders(evaluator.intrinsics, evaluator.poses, scene.targets, -9)[0][0], fast[0])
+    result = evaluator.evaluate(implicit)
     assert result["psnr"] > 12 and 0 <= result["f1"] <= 1 and result["mesh"] is not None
 
 
@@ -115,24 +119,23 @@ def test_clean_ground_truth_differs_only_where_other_objects_hide_a_target(tmp_p
 def test_clean_psnr_of_an_empty_map_is_the_blank_render_psnr():
     """An untrained field renders no target (every sample's class argmax is background), so both PSNRs
     are those of an all-white image; the clean one averages over the views that show a target."""
-    from stair_lite.field import SemanticField
-
     preset = small_eval_preset()
     scene = load_scene("scene1")
     evaluator = Evaluator(Simulator(scene), scene.targets, preset)
-    result = evaluator.evaluate(SemanticField(preset.field, seed=0))
+    result = evaluator.evaluate(ImplicitMap.from_preset(preset, seed=0))
     blank = [psnr(np.ones_like(g), g) for g in evaluator.gt_alone_images]
     assert evaluator.views_with_targets and result["mesh"] is None
     assert result["psnr_clean"] == pytest.approx(np.mean([blank[i] for i in evaluator.views_with_targets]))
     assert result["psnr"] == pytest.approx(np.mean([psnr(np.ones_like(g), g) for g in evaluator.gt_images]))
 
 
-def test_above_ground_drops_only_the_cells_below_the_cut():
-    from stair_lite.evaluation import GROUND_CUT_Z, above_ground
+def test_above_drops_only_the_cells_below_the_cut():
+    from stair_lite.evaluation import GROUND_CUT_Z
     from stair_lite.rendering import SkipGrid
 
-    r, bound = 16, 1.5
-    skip = SkipGrid(torch.ones(r, r, r, dtype=torch.bool), bound)
-    cut = above_ground(skip, bound)
-    z = np.linspace(-bound, bound, r)
-    assert np.array_equal(cut.keep[:, 0, 0].numpy(), z >= GROUND_CUT_Z) and cut.keep[:, 3, 7].equal(cut.keep[:, 0, 0])
+    lattice = Lattice(16)
+    cut = SkipGrid(torch.ones(16**3, dtype=torch.bool), lattice).above(GROUND_CUT_Z).keep.view(16, 16, 16)  # [z, y, x]
+    z = np.linspace(-CUBE_BOUND, CUBE_BOUND, 16)
+    assert np.array_equal(cut[:, 0, 0].numpy(), z >= GROUND_CUT_Z) and cut[:, 3, 7].equal(cut[:, 0, 0])
+    points = lattice.points()
+    assert torch.equal(cut.reshape(-1), points[:, 2] >= GROUND_CUT_Z)  # the flat order is the lattice's

@@ -56,7 +56,7 @@ def test_max_distance_accepts_correct():
 
 def test_max_distance_agrees_with_the_library_planner():
     """The checker's notion of 'right' is the one the max_distance baseline planner uses."""
-    planner = make_planner("max_distance", get_preset("lite").plan, seed=3)
+    planner = make_planner("max_distance", get_preset("lite"), seed=3)
     visited = np.array([[np.pi / 2, 0.0], [0.4, 1.0], [0.7, 3.0]])
     decision = planner.next_view(None, visited, (1,))
     assert decision.chosen_index == choice_ok(decision.candidates, visited, MIN_SEPARATION)

@@ -150,13 +150,20 @@ def test_replay_probabilities_rejects_wrong(wrong, hint):
 
 def test_replay_probabilities_match_raybuffer_first_draw():
     """The checker's rule is RayBuffer's: with n = 1 the exponential-keys draw picks ray i with probability w_i / sum w."""
+    from stair_lite.geometry import Intrinsics, view_to_pose
+    from stair_lite.measurement import Measurement
     from stair_lite.training import RayBuffer
 
+    def tiny(width):  # a one-row measurement of ``width`` background pixels
+        k = Intrinsics.from_fov(width, 1)
+        return Measurement(np.ones((1, width, 3), np.float32), np.zeros((1, width), np.float32),
+                           np.zeros((1, width), np.int64), view_to_pose(np.pi / 2, 0.0), k)
+
     buffer = RayBuffer()
+    buffer.add(tiny(5))
+    buffer.add(tiny(1))  # two views: the first five rays are old
     counts = np.array([0, 0, 1, 3, 9])
     buffer.use_counts = np.r_[counts, 0]
-    buffer.view_index = np.array([0, 0, 0, 0, 0, 1])
-    buffer._parts = [None, None]  # two views: the first five rays are old
     rng = np.random.default_rng(0)
     draws = np.array([buffer.replay_indices(1, rng)[0] for _ in range(20000)])
     freq = np.bincount(draws, minlength=5)[:5] / len(draws)

@@ -71,3 +71,54 @@ def test_scene_map_meshes_renders_and_scores_views():
     views = np.array([[0.5, 0.8], [0.3, 4.0], [1.2, 2.0]])
     scores = emap.roi_scores(views, scene.targets)
     assert scores.shape == (3,) and np.all(scores >= 0)
+
+
+def roi_test_map(wall: bool = False) -> ExplicitMap:
+    """A map that knows every voxel free except: a target block T at +x, an unknown block beside it (between
+    T and the +x side of the hemisphere), an equal unknown block far from T at -x, and optionally an
+    occupied non-target wall between that block and the -x side."""
+    emap = ExplicitMap(ExplicitConfig(resolution=32, candidate_scale=0.05))
+    centres = emap.grid.first_centre() + emap.voxel * torch.arange(32.0)
+    z, y, x = torch.meshgrid(centres, centres, centres, indexing="ij")
+    x, y, z = x.reshape(-1), y.reshape(-1), z.reshape(-1)
+    box = lambda x0, x1, half_width=0.3, top=0.6: (x > x0) & (x < x1) & (y.abs() < half_width) & (z > 0.0) & (z < top)  # noqa: E731
+    emap.observed[:] = True
+    emap.log_odds[:] = emap.l_min
+    target, near, far = box(0.2, 0.5), box(0.5, 0.9), box(-0.9, -0.5)
+    emap.log_odds[target] = emap.l_max
+    emap.class_counts[target, 1] = 1.0
+    emap.observed[near | far] = False
+    emap.log_odds[near | far] = 0.0
+    if wall:
+        blocker = box(-1.3, -1.05, half_width=0.7, top=1.2)
+        emap.log_odds[blocker] = emap.l_max
+        emap.class_counts[blocker, 3] = 1.0
+    return emap
+
+
+def test_roi_utility_ranks_unknown_space_near_targets_first_and_stops_at_surfaces():
+    """STE's ROI utility: unknown voxels near a target score more than equally many far from one, known
+    free space scores nothing, and nothing behind the first occupied voxel of a ray counts."""
+    plus_x, minus_x, top = [0.35, 0.0], [0.35, np.pi], [np.pi / 2, 0.0]  # low views from +x and -x, and the top
+    near_side, far_side, above = roi_test_map().roi_scores(np.array([plus_x, minus_x, top]), (1,))
+    assert near_side > 1.2 * far_side > 0   # the same unknown volume, closer to the target
+    walled = roi_test_map(wall=True).roi_scores(np.array([plus_x, minus_x]), (1,))
+    assert walled[0] == pytest.approx(near_side) and walled[1] < 0.1 * far_side   # the wall hides the far block
+    known = roi_test_map()
+    known.observed[:] = True
+    assert np.all(known.roi_scores(np.array([plus_x, minus_x, top]), (1,)) == 0)
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU")
+def test_explicit_map_on_the_gpu_matches_the_cpu():
+    sim = Simulator(load_scene("scene1"))
+    maps = {d: ExplicitMap(ExplicitConfig(resolution=32), device=d) for d in ("cpu", "cuda")}
+    for el, az in [(np.pi / 2, 0.0), (0.5, 0.8)]:
+        m = sim.render(view_to_pose(el, az))
+        for emap in maps.values():
+            emap.integrate(m)
+    k, pose, views = Intrinsics.from_fov(30, 30), view_to_pose(0.5, 0.8), np.array([[0.5, 0.8], [0.3, 4.0]])
+    cpu, gpu = maps["cpu"], maps["cuda"]
+    assert torch.equal(cpu.log_odds, gpu.log_odds.cpu())
+    np.testing.assert_allclose(cpu.render_target_only(k, pose, (1,)), gpu.render_target_only(k, pose, (1,)), atol=1e-6)
+    np.testing.assert_allclose(cpu.roi_scores(views, (1,)), gpu.roi_scores(views, (1,)), rtol=1e-5)

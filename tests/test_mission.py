@@ -45,6 +45,45 @@ def test_interrupted_mission_keeps_its_steps_and_resumes_exactly(tmp_path):
     assert strip_times(resumed) == strip_times(full)
 
 
+def test_interrupted_ste_mission_resumes_exactly(tmp_path):
+    """The explicit map is rebuilt from the stored views, the planner's generator from the checkpoint."""
+    full = run(tmp_path, "full", budget=4, planner="ste")
+
+    def stop_after_two(record):
+        if record["step"] == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run(tmp_path, "cut", budget=4, planner="ste", on_step=stop_after_two)
+    resumed = run(tmp_path, "cut", budget=4, planner="ste", resume=True)
+    assert strip_times(resumed) == strip_times(full)
+    assert all(r["ste_utility"] is not None and r["utility"] is None for r in full[1:])  # STE's score has its own column
+
+
+def test_a_mission_is_built_whole_and_stepped(tmp_path):
+    mission = Mission(MissionConfig(planner="stair", budget=2), out=tmp_path / "m", preset=TINY)
+    assert mission.map is mission.planning_map and set(mission.maps) == {"implicit"}
+    assert mission.evaluator.targets == mission.targets and mission.records == []
+    first = mission.step()
+    assert first["step"] == 1 and mission.records == [first] and not mission.finished
+    assert mission.step()["step"] == 2 and mission.finished
+    with pytest.raises(RuntimeError, match="all 2 measurements"):
+        mission.step()
+    ste = Mission(MissionConfig(planner="ste", budget=1), preset=TINY)
+    assert set(ste.maps) == {"explicit"} and ste.config.mapper == "explicit"  # an STE mission builds no field
+    replay = Mission(MissionConfig(planner="replay", replay=str(tmp_path / "m" / "metrics.json"), mapper="explicit",
+                                   budget=2), preset=TINY)
+    assert set(replay.maps) == {"explicit"} and replay.planning_map is None
+
+
+def test_the_stored_header_records_what_the_mission_ran_with(tmp_path):
+    Mission(MissionConfig(planner="stair", epsilon=0.5, budget=1), out=tmp_path, preset=TINY).run()
+    header = json.loads((tmp_path / "metrics.json").read_text())
+    assert header["config"]["epsilon"] == header["preset"]["plan"]["epsilon"] == 0.5
+    assert header["config"]["budget"] == header["preset"]["budget"] == 1
+    assert header["config"]["mapper"] == "implicit"
+
+
 def test_results_folder_is_protected(tmp_path):
     run(tmp_path, "x", budget=1)
     with pytest.raises(ResultsFolderError, match="--resume"):
@@ -77,7 +116,7 @@ def test_every_planner_completes_a_mission(tmp_path, planner):
 
 def test_ste_mission_and_the_cross_validation_replay(tmp_path):
     ste = Mission(MissionConfig(planner="ste", mapper="explicit", budget=3), out=tmp_path / "ste", preset=TINY).run()
-    assert ste[1]["utility"] is not None and ste[0]["loss"] is None  # the explicit map is not trained
+    assert ste[1]["ste_utility"] is not None and ste[0]["loss"] is None  # the explicit map is not trained
     implicit = Mission(MissionConfig(planner="replay", replay=str(tmp_path / "ste" / "metrics.json"), budget=3),
                        out=tmp_path / "ste_implicit", preset=TINY).run()
     assert [r["view_rad"] for r in implicit] == [r["view_rad"] for r in ste]  # STE's views, the field's map
@@ -89,7 +128,7 @@ def test_replay_needs_a_file_and_enough_views(tmp_path):
         MissionConfig(planner="replay")
     run(tmp_path, "short", budget=2, planner="uniform")
     with pytest.raises(ValueError, match="fewer than the budget"):
-        Mission(MissionConfig(planner="replay", replay=str(tmp_path / "short" / "metrics.json"), budget=3), preset=TINY).run()
+        Mission(MissionConfig(planner="replay", replay=str(tmp_path / "short" / "metrics.json"), budget=3), preset=TINY)
 
 
 @pytest.mark.parametrize("device,match", [("tpu", "unknown device|only 'cpu' and 'cuda'"), ("not a device", "unknown device")])

@@ -52,10 +52,10 @@ def test_stored_stair_cell_reproduces_its_first_steps(tmp_path, one_thread):
     mission = Mission(config, out=tmp_path)
     decisions = []
 
-    def plan_after_first_step(record):  # mission.field is the field the mission trains
+    def plan_after_first_step(record):  # mission.map.field is the field the mission trains
         if record["step"] == 1:
-            planner = make_planner("stair", get_preset("lite").plan, seed=cell.seed + 1, budget=10)
-            decisions.append(planner.next_view(mission.field, np.array([record["view_rad"]]), mission.targets))
+            planner = make_planner("stair", get_preset("lite"), seed=cell.seed + 1)
+            decisions.append(planner.next_view(mission.map.field, np.array([record["view_rad"]]), mission.targets))
 
     assert_within_tolerance(reproduction_gaps(stored, mission.run(on_step=plan_after_first_step)))
     decision = decisions[0]

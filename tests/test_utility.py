@@ -3,9 +3,10 @@ import pytest
 import torch
 
 import stair_lite  # noqa: F401
-from stair_lite.config import FieldConfig, PlanConfig
+from stair_lite.config import FieldConfig, PlanConfig, get_preset
 from stair_lite.field import SemanticField
-from stair_lite.geometry import Intrinsics, fibonacci_hemisphere
+from stair_lite.geometry import Intrinsics, fibonacci_hemisphere, view_to_position
+from stair_lite.lattice import Lattice
 from stair_lite.planners import MIN_SEPARATION, make_planner, far_enough
 from stair_lite.utility import FieldSnapshot, UtilityOptions, point_entropy, render_uncertainty, score_views, target_mask
 
@@ -24,6 +25,7 @@ class SlabField:
 
     def __init__(self, o_slab, z0=0.2, z1=0.6, cls=1, o_free=0.0):
         self.cfg = FieldConfig(grid_resolution=64)
+        self.lattice = Lattice(64)
         self.device = torch.device("cpu")
         self.o_slab, self.z0, self.z1, self.cls, self.o_free = o_slab, z0, z1, cls, o_free
 
@@ -85,9 +87,8 @@ def test_snapshot_scores_agree_with_the_exact_field():
 
 @pytest.mark.parametrize("name", ["fixed", "max_distance", "uniform"])
 def test_baseline_planners_are_seeded_and_never_revisit(name):
-    cfg = PlanConfig()
     visited = np.array([[np.pi / 2, 0.0]])
-    a, b = make_planner(name, cfg, seed=5), make_planner(name, cfg, seed=5)
+    a, b = make_planner(name, get_preset("paper"), seed=5), make_planner(name, get_preset("paper"), seed=5)
     for _ in range(9):
         va, vb = a.next_view(None, visited, (1,)).view, b.next_view(None, visited, (1,)).view
         np.testing.assert_array_equal(va, vb)
@@ -96,7 +97,7 @@ def test_baseline_planners_are_seeded_and_never_revisit(name):
 
 
 def test_fixed_pattern_spirals_down_the_hemisphere():
-    planner = make_planner("fixed", PlanConfig(), seed=0)
+    planner = make_planner("fixed", get_preset("paper"), seed=0)
     visited = np.array([[np.pi / 2, 0.0]])
     elevations = []
     for _ in range(9):
@@ -107,15 +108,47 @@ def test_fixed_pattern_spirals_down_the_hemisphere():
 
 
 def test_max_distance_picks_the_farthest_candidate():
-    planner = make_planner("max_distance", PlanConfig(), seed=0)
+    planner = make_planner("max_distance", get_preset("paper"), seed=0)
     d = planner.next_view(None, np.array([[np.pi / 2, 0.0]]), (1,))
     assert d.view[0] < np.radians(10)  # far from the top view: near the horizon
+
+
+class TwoBoxField:
+    """A stand-in field: two equal boxes of occupancy 0.5 (maximal entropy), of class 1 at +x and class 3
+    at -x, in an empty scene."""
+
+    def __init__(self):
+        self.cfg = FieldConfig(grid_resolution=48)
+        self.lattice = Lattice(48)
+        self.device = torch.device("cpu")
+
+    def query(self, x):
+        in_box = [((x - torch.tensor(c)).abs() < 0.25).all(dim=1) for c in ((0.6, 0.0, 0.3), (-0.6, 0.0, 0.3))]
+        sem = torch.zeros(len(x), 7)
+        sem[:, 0] = 1.0
+        for box, cls in zip(in_box, (1, 3)):
+            sem[box] = torch.nn.functional.one_hot(torch.tensor(cls), 7).float()
+        return {"occ": (in_box[0] | in_box[1]).float() * 0.5, "sem": sem}
+
+
+@pytest.mark.parametrize("target,side", [(1, 1.0), (3, -1.0)])
+def test_stair_planner_looks_at_the_uncertain_target(target, side):
+    """Both boxes are equally uncertain; with epsilon 0 only the target's rays count (Eqs. 13-15), so the
+    chosen camera stands on the target's side, where the target looks largest and hides the other box.
+    The same candidates are scored for both targets, so a utility that ignored the mask would choose
+    the same view twice and fail one of the two cases."""
+    field = TwoBoxField()
+    cfg = PlanConfig(n_uniform=40, top_k=3, n_resample=3, candidate_scale=0.05, candidate_samples=64, epsilon=0.0)
+    d = make_planner("stair", get_preset("lite", plan=cfg), seed=0).next_view(field, np.array([[np.pi / 2, 0.0]]), (target,))
+    camera = view_to_position(*d.view)
+    assert side * camera[0] > 0.5, camera
+    assert d.scores.exploitation[d.chosen_index] == d.scores.exploitation.max()
 
 
 def test_stair_planner_prefers_the_uncertain_target_and_skips_visited_views():
     field = SlabField(0.5, cls=1)
     cfg = PlanConfig(n_uniform=30, top_k=3, n_resample=3, candidate_scale=0.04, candidate_samples=64)
-    planner = make_planner("stair", cfg, seed=0)
+    planner = make_planner("stair", get_preset("lite", plan=cfg), seed=0)
     visited = np.array([[np.pi / 2, 0.0]])
     d = planner.next_view(field, visited, (1,))
     assert len(d.candidates) == 30 + 9
@@ -126,4 +159,4 @@ def test_stair_planner_prefers_the_uncertain_target_and_skips_visited_views():
 
 def test_unknown_planner_is_named():
     with pytest.raises(ValueError, match="unknown planner 'greedy'"):
-        make_planner("greedy", PlanConfig(), seed=0)
+        make_planner("greedy", get_preset("paper"), seed=0)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..lattice import CUBE_BOUND
 from .common import as_array as _as_array, call as _call
 
 _ATOL = 1e-6
@@ -164,9 +165,9 @@ def check_trilinear_corners(trilinear_corners, n_trials: int = 200, seed: int = 
     A point on the upper face belongs to the last cell (lower corner R - 2)."""
     rng = np.random.default_rng(seed)
     cases = [
-        (np.array([1.5, 1.5, 1.5]), 1.5, 5),  # the upper corner: last cell
-        (np.array([-1.5, -1.5, -1.5]), 1.5, 5),
-        (np.array([0.0, 0.0, 0.0]), 1.5, 5),  # a vertex (R odd)
+        (np.full(3, CUBE_BOUND), CUBE_BOUND, 5),  # the upper corner: last cell
+        (np.full(3, -CUBE_BOUND), CUBE_BOUND, 5),
+        (np.zeros(3), CUBE_BOUND, 5),  # a vertex (R odd)
         (np.array([0.3, -0.7, 0.9]), 1.0, 4),
     ]
     for _ in range(n_trials):

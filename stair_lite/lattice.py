@@ -1,0 +1,106 @@
+"""The scene cube and the regular lattices laid over it: one index order for every grid in the package.
+
+Introduced in notebook 02. The scene lives in the cube [-CUBE_BOUND, CUBE_BOUND]^3. A ``Lattice`` of
+resolution R has R^3 vertices on the cube's corners and faces (vertex i at x = -b + i 2b / (R - 1), the
+convention of ``F.grid_sample(..., align_corners=True)``); a ``VoxelGrid`` of resolution R cuts the cube
+into R^3 cells (cell i covers [-b + i v, -b + (i + 1) v), v = 2b / R). Both store their values in one
+flat order: row (k R + j) R + i holds vertex or cell (x_i, y_j, z_k), so reshaping a flat table to
+(R, R, R) indexes it [z, y, x]. ``xyz`` turns such a volume into [x, y, z] order (marching cubes'
+axes are then world x, y, z).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+CUBE_BOUND = 1.5  # [m]: the scene cube is [-CUBE_BOUND, CUBE_BOUND]^3 (the ground's slab fills its floor)
+
+
+def flat_index(i: torch.Tensor, j: torch.Tensor, k: torch.Tensor, resolution: int) -> torch.Tensor:
+    """Row of vertex or cell (i, j, k) in a flat (R^3, ...) table: (k R + j) R + i."""
+    return (k * resolution + j) * resolution + i
+
+
+def xyz(volume_zyx):
+    """A (R, R, R) volume indexed [z, y, x] (a reshaped flat table) as one indexed [x, y, z]."""
+    return volume_zyx.transpose(2, 1, 0) if isinstance(volume_zyx, np.ndarray) else volume_zyx.permute(2, 1, 0)
+
+
+@dataclass(frozen=True)
+class Lattice:
+    """R^3 vertices on the corners of the cube; the field's grids, its snapshot and the mesh volume use it."""
+
+    resolution: int
+    bound: float = CUBE_BOUND
+
+    @property
+    def spacing(self) -> float:
+        """Distance between neighbouring vertices [m]."""
+        return 2 * self.bound / (self.resolution - 1)
+
+    def axis(self, device=None) -> torch.Tensor:
+        """The R vertex coordinates along one axis, from -bound to bound."""
+        return torch.linspace(-self.bound, self.bound, self.resolution, device=device)
+
+    def points(self, device=None, z_min: float | None = None) -> torch.Tensor:
+        """World positions (N, 3) of the vertices in flat order; with ``z_min`` only the z-layers from the
+        last one below ``z_min`` upwards (a contiguous tail of the flat order, ``first_layer(z_min)`` on)."""
+        axis = self.axis(device)
+        zs = axis[self.first_layer(z_min):] if z_min is not None else axis
+        z, y, x = torch.meshgrid(zs, axis, axis, indexing="ij")
+        return torch.stack([x, y, z], dim=-1).reshape(-1, 3)
+
+    def first_layer(self, z_min: float) -> int:
+        """Index of the lowest z-layer kept by ``points(z_min=...)``: one layer below ``z_min`` is kept, so
+        the cells that straddle ``z_min`` are whole."""
+        return int(np.count_nonzero(self.axis().numpy() < z_min - self.spacing))
+
+    def normalise(self, x: torch.Tensor) -> torch.Tensor:
+        """World coordinates -> [-1, 1]^3 (the vertex coordinates of ``grid_sample``)."""
+        return x / self.bound
+
+    def nearest_index(self, points: torch.Tensor) -> torch.Tensor:
+        """Flat index of the vertex nearest to each point (..., 3); points outside snap to the boundary."""
+        r = self.resolution
+        ijk = ((self.normalise(points) + 1.0) * 0.5 * (r - 1)).round().long().clamp(0, r - 1)
+        return flat_index(ijk[..., 0], ijk[..., 1], ijk[..., 2], r)
+
+    def nearest_layer(self, z: torch.Tensor) -> torch.Tensor:
+        """Index of the z-layer nearest to each height z (the same rounding as ``nearest_index``)."""
+        r = self.resolution
+        return ((z / self.bound + 1.0) * 0.5 * (r - 1)).round().long().clamp(0, r - 1)
+
+
+@dataclass(frozen=True)
+class VoxelGrid:
+    """R^3 cells filling the cube; the explicit map's voxels."""
+
+    resolution: int
+    bound: float = CUBE_BOUND
+
+    @property
+    def voxel(self) -> float:
+        """Edge length of a cell [m]."""
+        return 2 * self.bound / self.resolution
+
+    def to_voxel_units(self, x: torch.Tensor) -> torch.Tensor:
+        """World coordinates -> voxel units: cell (i, j, k) is [i, i+1) x [j, j+1) x [k, k+1)."""
+        return (x + self.bound) / self.voxel
+
+    def cell_index(self, points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Flat index of the cell holding each point (..., 3), and whether the point lies in the grid."""
+        return self.flat_from_voxel_units(self.to_voxel_units(points))
+
+    def flat_from_voxel_units(self, u: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Flat index of the cell at voxel coordinates u (..., 3) (clamped to the grid) and whether u lies inside."""
+        r = self.resolution
+        ijk = torch.floor(u).long()
+        inside = ((ijk >= 0) & (ijk < r)).all(dim=-1)
+        ijk = ijk.clamp(0, r - 1)
+        return flat_index(ijk[..., 0], ijk[..., 1], ijk[..., 2], r), inside
+
+    def first_centre(self) -> float:
+        """World coordinate of the first cell centre along each axis."""
+        return -self.bound + self.voxel / 2

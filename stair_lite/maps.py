@@ -1,0 +1,111 @@
+"""The map a mission builds, behind one small interface: the implicit map (the semantic field and its
+trainer, paper Sec. III) and the explicit voxel map of the STE baseline (explicit.py, Sec. IV-C).
+
+Introduced in notebook 05. A map takes measurements and updates itself; the evaluator asks it for
+target-only renders and the target mesh; a planner reads its ``planning_source``. Its state is what
+its measurements do not determine (``state_dict``): a mission resumes a map by adding the same
+measurements again and then loading that state.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from .config import Preset
+from .evaluation import extract_mesh
+from .field import SemanticField
+from .geometry import Intrinsics
+from .measurement import Measurement
+from .rendering import build_skip_grid, render_target_views
+from .training import Losses, Trainer
+
+IMPLICIT, EXPLICIT = "implicit", "explicit"
+MAP_KINDS = (IMPLICIT, EXPLICIT)
+
+
+class ReconstructionMap(ABC):
+    """What a mission, its evaluator and its planner need of a map."""
+
+    kind: str
+
+    @abstractmethod
+    def add_measurement(self, m: Measurement) -> None:
+        """Take a measurement into the map's memory (``update`` learns from it)."""
+
+    @abstractmethod
+    def update(self) -> list[Losses]:
+        """Update the map after a new measurement; the loss history of its training, if it trains."""
+
+    def integrate(self, m: Measurement) -> list[Losses]:
+        """One step of a mission's mapping: add the measurement, then update."""
+        self.add_measurement(m)
+        return self.update()
+
+    @abstractmethod
+    def target_only_renders(self, intrinsics: Intrinsics, poses: list[np.ndarray], targets: tuple[int, ...],
+                            z_min: float) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """Target-only colour renders at each pose (paper Sec. IV-A): as the paper defines them, and with
+        nothing below height ``z_min`` (the unobservable volume under the ground)."""
+
+    @abstractmethod
+    def target_mesh(self, targets: tuple[int, ...]):
+        """The target-only surface as a trimesh (None when nothing is occupied)."""
+
+    @property
+    @abstractmethod
+    def planning_source(self):
+        """What a planner of this map's kind reads."""
+
+    def state_dict(self) -> dict:
+        return {}
+
+    def load_state_dict(self, state: dict) -> None:
+        pass
+
+
+class ImplicitMap(ReconstructionMap):
+    """The semantic field and its incremental trainer: STAIR's map. Planners read the field."""
+
+    kind = IMPLICIT
+
+    def __init__(self, trainer: Trainer, mesh_resolution: int):
+        self.trainer = trainer
+        self.mesh_resolution = mesh_resolution
+
+    @classmethod
+    def from_preset(cls, preset: Preset, seed: int = 0, device="cpu") -> "ImplicitMap":
+        field = SemanticField(preset.field, seed=seed).to(device)
+        return cls(Trainer(field, preset.train, preset.render, seed=seed), preset.eval.mesh_resolution)
+
+    @property
+    def field(self) -> SemanticField:
+        return self.trainer.field
+
+    def add_measurement(self, m: Measurement) -> None:
+        self.trainer.add_measurement(m)
+
+    def update(self) -> list[Losses]:
+        return self.trainer.update()
+
+    def target_only_renders(self, intrinsics, poses, targets, z_min):
+        """Both renders skip the lattice cells that hold no target (``build_skip_grid``); the second also
+        the cells below ``z_min``."""
+        skip = build_skip_grid(self.field, targets)
+        render = self.trainer.render_cfg
+        return (render_target_views(self.field, intrinsics, poses, render, targets, skip),
+                render_target_views(self.field, intrinsics, poses, render, targets, skip.above(z_min)))
+
+    def target_mesh(self, targets):
+        return extract_mesh(self.field, self.mesh_resolution, targets=targets)
+
+    @property
+    def planning_source(self) -> SemanticField:
+        return self.field
+
+    def state_dict(self) -> dict:
+        return {"field": self.field.state_dict(), "trainer": self.trainer.state_dict()}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.field.load_state_dict(state["field"])
+        self.trainer.load_state_dict(state["trainer"])

@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import time
 from pathlib import Path
@@ -23,9 +24,6 @@ from .planners import PLANNERS, REPLAY
 
 
 def _cmd_scenes(args):
-    from .classes import CLASS_NAMES
-from .maps import MAP_KINDS
-from .planners import PLANNERS, REPLAY
     from .scenes import list_scenes, load_scene_spec
 
     for name in list_scenes():
@@ -173,19 +171,32 @@ def _cmd_sweep(args):
         raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
     if args.first_seed < 0:
         raise ValueError(f"--first-seed must be >= 0, got {args.first_seed}")
+    if args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, got {args.workers}")
     spec = SweepSpec(scenes, variants, tuple(range(args.first_seed, args.first_seed + args.seeds)), args.preset, args.budget)
+    where = (f"on the Dask cluster at {args.scheduler}" if args.scheduler else
+             f"on a local Dask cluster of {args.workers} workers" if args.workers > 1 else "in this process")
     print(f"sweep: {len(spec.cells())} cells ({len(scenes)} scenes x {len(variants)} variants x {args.seeds} seeds), "
-          f"preset {args.preset}, {args.workers} worker(s), results in {args.out}")
+          f"preset {args.preset}, {where}, results in {args.out}")
     start = time.perf_counter()
+    signal.signal(signal.SIGTERM, _interrupt)  # a terminated sweep stops its workers like Ctrl-C
     try:
-        outcomes = run_sweep(spec, args.out, workers=args.workers, progress=not args.quiet, device=args.device)
+        outcomes = run_sweep(spec, args.out, workers=args.workers, progress=not args.quiet, device=args.device,
+                             scheduler=args.scheduler)
     except KeyboardInterrupt:
         print("\ninterrupted: finished cells are kept; run the same command again to continue", file=sys.stderr)
         return 130
     ran = sum(1 for _, o in outcomes if o != "finished before")
+    for cell, outcome in outcomes:
+        if outcome.startswith(("failed", "not run")):
+            print(f"{cell.scene}/{cell.variant}/seed{cell.seed}: {outcome}", file=sys.stderr)
     print(f"{ran} cells run in {time.perf_counter() - start:.0f} s, {len(outcomes) - ran} were finished before")
     args.results = args.out
     return _cmd_report(args)
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
 
 
 def _warn(message: str) -> None:
@@ -284,7 +295,9 @@ def main(argv=None):
     p.add_argument("--first-seed", type=int, default=0)
     p.add_argument("--preset", default="lite", choices=["lite", "paper", "smoke"])
     p.add_argument("--budget", type=int, default=None, help="measurements per mission (default: the preset's, 10)")
-    p.add_argument("--workers", type=int, default=1, help="parallel worker processes (spawned)")
+    p.add_argument("--workers", type=int, default=1, help="cells in parallel: N > 1 starts a local Dask cluster of N "
+                   "single-threaded worker processes")
+    p.add_argument("--scheduler", default=None, help="address of an existing Dask cluster (tcp://host:8786) to run the cells on")
     p.add_argument("--out", default="runs/sweep")
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")

@@ -2,8 +2,8 @@
 
 Introduced in notebook 06. Each cell writes its own folder ``<out>/<scene>/<variant>/seed<k>/`` (the
 mission's metrics.json and checkpoint), so a finished cell is never recomputed and killing a sweep
-loses nothing finished. Cells run in worker processes started with ``spawn`` (the renderer hangs in
-forked children). ``collect`` gathers every finished cell into one table, a row per
+loses nothing finished. Cells run in this process, or on a Dask cluster (a local one of single-threaded
+worker processes, or an existing one): ``run_sweep``. ``collect`` gathers every finished cell into one table, a row per
 (scene, variant, seed, step).
 
 Variants: the planners (stair, exploration, fixed, max_distance, uniform), ``ste`` (the explicit
@@ -16,8 +16,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import json
-import multiprocessing
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+import uuid
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -206,12 +205,14 @@ def replay_source(cell: Cell) -> Cell | None:
 
 
 def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: bool = True, log=print,
-              device: str = "cpu") -> list[tuple[Cell, str]]:
-    """Run every unfinished cell (in ``workers`` spawned processes, each mission on ``device``); returns
-    what happened to each.
+              device: str = "cpu", scheduler: str | None = None) -> list[tuple[Cell, str]]:
+    """Run every unfinished cell, each mission on ``device``; returns what happened to each cell.
 
-    A cross-validation cell starts as soon as the cell it replays has finished, so a sweep stopped
-    early holds whole seeds of every variant."""
+    ``workers`` <= 1 and no ``scheduler``: one cell after another in this process. ``workers`` N > 1: on a
+    local Dask cluster of N single-threaded worker processes, started and stopped here. ``scheduler``
+    (an address such as ``tcp://host:8786``): on an existing Dask cluster. A cross-validation cell starts
+    as soon as the cell it replays has finished, so a sweep stopped early holds whole seeds of every
+    variant. A cell whose worker dies or raises is reported as failed and redone by the next run."""
     from tqdm import tqdm
 
     root = Path(root)
@@ -242,23 +243,78 @@ def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: boo
 
     def done(outcome: tuple[Cell, str]) -> None:
         outcomes.append(outcome)
-        finished.add(outcome[0])
+        if not outcome[1].startswith("failed"):
+            finished.add(outcome[0])
         bar.update(1)
 
-    if workers <= 1:
-        while ready := release():
-            for c in ready:
-                done(run_cell(c, str(root), spec.preset, spec.budget, device=device))
-    else:
-        with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            running = {pool.submit(run_cell, c, str(root), spec.preset, spec.budget, 1, device) for c in release()}
-            while running:
-                complete, running = wait(running, return_when=FIRST_COMPLETED)
-                for future in complete:
-                    done(future.result())
-                running |= {pool.submit(run_cell, c, str(root), spec.preset, spec.budget, 1, device) for c in release()}
-    bar.close()
+    try:
+        if workers <= 1 and scheduler is None:
+            while ready := release():
+                for c in ready:
+                    done(run_cell(c, str(root), spec.preset, spec.budget, device=device))
+        else:
+            with dask_client(workers, scheduler) as client:
+                run_on_cluster(client, release, done, root, spec, device)
+    finally:
+        bar.close()
+    outcomes += [(c, f"not run: the cell it replays ({replay_source(c).variant}) failed") for c in waiting]
     return outcomes
+
+
+class dask_client:
+    """A Dask client: of the cluster at ``scheduler``, or of a local cluster of ``workers`` single-threaded
+    worker processes that lives as long as the client. A worker that dies fails its task at once (no
+    retry on another worker), so its cell is reported and redone by the next run."""
+
+    def __init__(self, workers: int, scheduler: str | None = None):
+        self.workers, self.scheduler = workers, scheduler
+
+    def __enter__(self):
+        import logging
+
+        import dask
+        from dask.distributed import Client, LocalCluster
+
+        self.cluster = None
+        with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+            if self.scheduler is None:
+                self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
+                                            dashboard_address=None, silence_logs=logging.ERROR)
+            self.client = Client(self.scheduler or self.cluster)
+        return self.client
+
+    def __exit__(self, *exc):
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()  # stops the worker processes, also on Ctrl-C
+
+
+def run_on_cluster(client, release, done, root: Path, spec: SweepSpec, device: str) -> None:
+    """Submit released cells to the cluster and collect them as they finish (see ``run_sweep``). No more
+    cells are in flight than the cluster has worker threads, so a worker holds only the cell it runs and
+    a dead worker fails that one cell."""
+    from dask.distributed import as_completed
+
+    pending, cell_of, queue = [], {}, as_completed()
+
+    def fill() -> None:
+        pending.extend(release())
+        slots = max(1, sum(client.nthreads().values())) - queue.count()
+        for c in pending[:max(slots, 0)]:
+            future = client.submit(run_cell, c, str(root), spec.preset, spec.budget, 1, device, pure=False,
+                                   key=f"{c.scene}-{c.variant}-seed{c.seed}-{uuid.uuid4().hex[:8]}")
+            cell_of[future] = c
+            queue.add(future)
+        del pending[:max(slots, 0)]
+
+    fill()
+    for future in queue:
+        try:
+            outcome = future.result()
+        except Exception as err:  # the cell raised, or its worker died (KilledWorker)
+            outcome = (cell_of[future], f"failed ({type(err).__name__}: {err}); run the sweep again to redo it")
+        done(outcome)
+        fill()
 
 
 def collect(root: str | Path, log=print) -> list[dict]:

@@ -85,3 +85,49 @@ def test_collect_leaves_out_unfinished_cells(tmp_path):
     messages = []
     assert collect(tmp_path, log=messages.append) == []
     assert any("unfinished" in m for m in messages)
+
+
+def test_a_dead_worker_fails_its_cell_and_the_rerun_completes_the_table(tmp_path):
+    """A smoke sweep on a local Dask cluster of 2 workers (reached by its scheduler's address, as a lab's
+    cluster would be); one worker is killed while it runs a cell. The sweep goes on, reports that cell
+    as failed, and the next run completes the table."""
+    import os
+    import signal
+    import threading
+    import time
+
+    import dask
+    from dask.distributed import Client, LocalCluster
+
+    sweep = spec(variants=("uniform", "fixed", "max_distance"), seeds=(0, 1), budget=3)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    watcher = Client(cluster)
+    killed = []
+
+    def kill_a_busy_worker():
+        deadline = time.time() + 120
+        while not killed and time.time() < deadline:
+            busy = [w for w, tasks in watcher.processing().items() if tasks]
+            started = list(tmp_path.glob("*/*/seed*/metrics.json"))  # some cell has finished a step
+            if busy and started:
+                pid = watcher.run(os.getpid, workers=[busy[0]])[busy[0]]
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+            time.sleep(0.05)
+
+    thread = threading.Thread(target=kill_a_busy_worker)
+    thread.start()
+    try:
+        outcomes = run_sweep(sweep, tmp_path, progress=False, scheduler=cluster.scheduler_address)
+    finally:
+        thread.join()
+        watcher.close()
+        cluster.close()
+    assert killed and len(outcomes) == 6
+    failed = [c for c, o in outcomes if o.startswith("failed")]
+    assert len(failed) == 1, outcomes
+    rerun = run_sweep(sweep, tmp_path, progress=False, workers=2)
+    assert sorted(o for _, o in rerun).count("finished before") == 5
+    rows = collect(tmp_path)
+    assert len(rows) == 6 * 3 and {(r["variant"], r["seed"]) for r in rows} == {(v, k) for v in sweep.variants for k in (0, 1)}

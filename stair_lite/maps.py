@@ -17,7 +17,7 @@ from .evaluation import extract_mesh
 from .field import SemanticField
 from .geometry import Intrinsics
 from .measurement import Measurement
-from .rendering import build_skip_grid, render_target_views
+from .rendering import build_skip_grid, render_target_views_and_cut
 from .training import Losses, Trainer
 
 IMPLICIT, EXPLICIT = "implicit", "explicit"
@@ -90,11 +90,9 @@ class ImplicitMap(ReconstructionMap):
 
     def target_only_renders(self, intrinsics, poses, targets, z_min):
         """Both renders skip the lattice cells that hold no target (``build_skip_grid``); the second also
-        the cells below ``z_min``."""
+        the cells below ``z_min``. Both come from one evaluation of the field per sample."""
         skip = build_skip_grid(self.field, targets)
-        render = self.trainer.render_cfg
-        return (render_target_views(self.field, intrinsics, poses, render, targets, skip),
-                render_target_views(self.field, intrinsics, poses, render, targets, skip.above(z_min)))
+        return render_target_views_and_cut(self.field, intrinsics, poses, self.trainer.render_cfg, targets, skip, z_min)
 
     def target_mesh(self, targets):
         return extract_mesh(self.field, self.mesh_resolution, targets=targets)

@@ -109,6 +109,46 @@ def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: fl
     return SkipGrid(keep, lattice)
 
 
+def sample_field(field, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderConfig, n_samples: int | None = None,
+                 generator: torch.Generator | None = None, depth: torch.Tensor | None = None,
+                 skip: SkipGrid | None = None) -> dict[str, torch.Tensor]:
+    """Samples along rays and what the field says there: parameters t (R, S), points (R, S, 3), occupancy
+    (R, S) and class logits (R, S, P), zero where the field is not evaluated (outside the cube, or in a
+    cell ``skip`` leaves out), plus the colour features and encodings of the evaluated samples."""
+    t_near, t_far, hit = ray_box_intersection(origins, dirs, field.lattice.bound, cfg.near)
+    t_far = torch.where(hit, t_far, t_near + 1e-3)
+    t = sample_along_rays(
+        t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
+        cfg.surface_band,
+    )
+    r, s = t.shape
+    points = origins[:, None, :] + t[..., None] * dirs[:, None, :]
+    evaluate = hit[:, None].expand(r, s)
+    if skip is not None:
+        evaluate = evaluate & skip.lookup(points)
+    evaluate = evaluate.reshape(-1)
+    f_occ, f_rgb, f_sem, pe = field.features(points.reshape(-1, 3)[evaluate])
+    where = (evaluate.nonzero().squeeze(1),)
+    occ = torch.zeros(r * s, device=t.device).index_put(where, field.occupancy_from(f_occ, pe))
+    sem_logits = torch.zeros(r * s, f_sem.shape[1], device=t.device).index_put(where, f_sem)
+    return {"t": t, "points": points, "occ": occ.view(r, s), "sem_logits": sem_logits.view(r, s, -1),
+            "evaluate": evaluate, "f_rgb": f_rgb, "pe": pe}
+
+
+def is_target(sem_logits: torch.Tensor, targets: tuple[int, ...]) -> torch.Tensor:
+    """Whether each sample's semantic argmax is a target class (the target-only mask of Sec. IV-A)."""
+    return torch.isin(sem_logits.argmax(dim=-1), torch.as_tensor(targets, device=sem_logits.device))
+
+
+def sample_colours(field, samples: dict[str, torch.Tensor], active: torch.Tensor) -> torch.Tensor:
+    """Colour (R S, 3) of the ``active`` samples (a flat mask, a subset of the evaluated ones); 0 elsewhere."""
+    rgb = torch.zeros(len(active), 3, device=active.device)
+    if active.any():
+        rows = active[samples["evaluate"]]  # positions of the active samples among the evaluated ones
+        rgb = rgb.index_put((active.nonzero().squeeze(1),), field.colour_from(samples["f_rgb"][rows], samples["pe"][rows]))
+    return rgb
+
+
 def render_rays(
     field,
     origins: torch.Tensor,
@@ -129,33 +169,16 @@ def render_rays(
     Colour and class probabilities are evaluated only at samples whose weight exceeds
     ``colour_weight_threshold`` (the others cannot change the pixel).
     """
-    t_near, t_far, hit = ray_box_intersection(origins, dirs, field.lattice.bound, cfg.near)
-    t_far = torch.where(hit, t_far, t_near + 1e-3)
-    t = sample_along_rays(
-        t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
-        cfg.surface_band,
-    )
+    samples = sample_field(field, origins, dirs, cfg, n_samples, generator, depth, skip)
+    t, occ, sem_logits = samples["t"], samples["occ"], samples["sem_logits"]
     r, s = t.shape
-    points = origins[:, None, :] + t[..., None] * dirs[:, None, :]
-    evaluate = hit[:, None].expand(r, s)
-    if skip is not None:
-        evaluate = evaluate & skip.lookup(points)
-    evaluate = evaluate.reshape(-1)
-    f_occ, f_rgb, f_sem, pe = field.features(points.reshape(-1, 3)[evaluate])
-    occ = torch.zeros(r * s, device=t.device).index_put((evaluate.nonzero().squeeze(1),), field.occupancy_from(f_occ, pe))
-    sem_logits = torch.zeros(r * s, f_sem.shape[1], device=t.device).index_put((evaluate.nonzero().squeeze(1),), f_sem)
-    occ, sem_logits = occ.view(r, s), sem_logits.view(r, s, -1)
     if targets is not None:
-        keep = torch.isin(sem_logits.argmax(dim=-1), torch.as_tensor(targets, device=occ.device))
-        occ = occ * keep
+        occ = occ * is_target(sem_logits, targets)
     weights, transmittance = compositing_weights(occ)
     acc = weights.sum(dim=1)
 
-    rgb = torch.zeros(r * s, 3, device=t.device)
     active = (weights.detach() > colour_weight_threshold).view(-1)
-    if active.any():
-        rows = active[evaluate]  # positions of the active samples among the evaluated ones
-        rgb = rgb.index_put((active.nonzero().squeeze(1),), field.colour_from(f_rgb[rows], pe[rows]))
+    rgb = sample_colours(field, samples, active)
     colour = (weights[..., None] * rgb.view(r, s, 3)).sum(dim=1) + (1.0 - acc)[:, None]
     depth_map = (weights * t).sum(dim=1)
     # Semantic rendering (Eq. 4) uses detached weights, as the reference code does: semantics do not
@@ -212,3 +235,29 @@ def render_target_views(field, intrinsics: Intrinsics, poses: list[np.ndarray], 
     """Target-only colour renders (H, W, 3) of the field at each pose (paper Sec. IV-A); ``skip`` leaves
     out the lattice cells it does not keep."""
     return [render_image(field, intrinsics, p, cfg, targets=targets, skip=skip)["rgb"] for p in poses]
+
+
+@torch.no_grad()
+def render_target_views_and_cut(field, intrinsics: Intrinsics, poses: list[np.ndarray], cfg: RenderConfig,
+                                targets: tuple[int, ...], skip: SkipGrid, z_min: float,
+                                colour_weight_threshold: float = 1e-5) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """``render_target_views`` with ``skip`` and with ``skip.above(z_min)``, from one evaluation of the
+    field per sample: the second composite zeroes the samples whose nearest lattice vertex lies below
+    ``z_min``, and colour is evaluated once where either composite's weight matters."""
+    lattice, h, w = skip.lattice, intrinsics.height, intrinsics.width
+    full, cut = [], []
+    for pose in poses:
+        origins, dirs = (torch.as_tensor(a, dtype=torch.float32, device=field.device) for a in pixel_rays(intrinsics, pose))
+        parts = ([], [])
+        for o, d in zip(torch.split(origins, cfg.chunk_rays), torch.split(dirs, cfg.chunk_rays)):
+            samples = sample_field(field, o, d, cfg, skip=skip)
+            occ = samples["occ"] * is_target(samples["sem_logits"], targets)
+            above = lattice.axis(occ.device)[lattice.nearest_layer(samples["points"][..., 2])] >= z_min
+            weights = [compositing_weights(o_)[0] for o_ in (occ, occ * above)]
+            active = (weights[0] > colour_weight_threshold) | (weights[1] > colour_weight_threshold)
+            rgb = sample_colours(field, samples, active.view(-1)).view(*occ.shape, 3)
+            for part, wt in zip(parts, weights):
+                part.append((wt[..., None] * rgb).sum(dim=1) + (1.0 - wt.sum(dim=1))[:, None])
+        full.append(torch.cat(parts[0]).clamp(0, 1).view(h, w, 3).cpu().numpy())
+        cut.append(torch.cat(parts[1]).clamp(0, 1).view(h, w, 3).cpu().numpy())
+    return full, cut

@@ -1,0 +1,76 @@
+"""The paper preset on this CPU, in the units of the speed issue's table: one training iteration
+(4000 newest + 4000 replayed rays, 128^3 grids), one candidate render for planning (80 x 80 rays x 200
+samples, from the field snapshot), one planning step (the two-stage search over 200 candidates), and
+the process's peak memory. A measurement of the authors' code on a 2-core CPU (an external figure, not
+reproduced here) gave 1.40 s per iteration, 0.42 s per candidate render, about 100 s per planning step
+and 1.9 GB; the README quotes it with its conditions.
+
+Run: .venv/bin/python benchmarks/bench_paper_cpu.py [--iterations 5] [--planning-steps 1]
+"""
+import argparse
+import resource
+import statistics
+import time
+
+import numpy as np
+
+import stair_lite  # noqa: F401
+from stair_lite.config import get_preset
+from stair_lite.geometry import TOP_VIEW, Intrinsics, fibonacci_hemisphere, view_to_pose
+from stair_lite.maps import ImplicitMap
+from stair_lite.planners import make_planner
+from stair_lite.scenes import load_scene
+from stair_lite.simulator import Simulator
+from stair_lite.utility import FieldSnapshot, score_views
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--iterations", type=int, default=5)
+    parser.add_argument("--planning-steps", type=int, default=1)
+    parser.add_argument("--scene", default="scene1")
+    args = parser.parse_args()
+    preset = get_preset("paper")
+    scene = load_scene(args.scene)
+    sim = Simulator(scene)
+    implicit = ImplicitMap.from_preset(preset, seed=0)
+    visited = [np.array(TOP_VIEW)] + list(fibonacci_hemisphere(2, azimuth_offset=0.3))
+    for view in visited:  # three views, so that replay rays exist
+        implicit.add_measurement(sim.render(view_to_pose(*view)))
+        implicit.trainer.update(1)
+    tc = preset.train
+    times = []
+    for _ in range(args.iterations):
+        start = time.perf_counter()
+        implicit.trainer.update(1)
+        times.append(time.perf_counter() - start)
+    print(f"paper preset, one training iteration ({tc.rays_new} + {tc.rays_replay} rays, "
+          f"{preset.field.grid_resolution}^3 grids, {preset.render.n_samples} samples per ray): median "
+          f"{statistics.median(times):.2f} s over {args.iterations} (min {min(times):.2f}, max {max(times):.2f})")
+    p = preset.plan
+    k = Intrinsics.from_fov().scaled(p.candidate_scale)
+    start = time.perf_counter()
+    snapshot = FieldSnapshot(implicit.field)
+    t_snapshot = time.perf_counter() - start
+    views = fibonacci_hemisphere(10, azimuth_offset=0.1)
+    renders = []
+    for view in views:
+        start = time.perf_counter()
+        score_views(snapshot, view[None], scene.targets, k, p.candidate_samples)
+        renders.append(time.perf_counter() - start)
+    print(f"one candidate render ({k.width}x{k.height} rays x {p.candidate_samples} samples, from the snapshot): median "
+          f"{statistics.median(renders):.3f} s over {len(views)} views (snapshot of {snapshot.lattice.resolution}^3 "
+          f"vertices: {t_snapshot:.2f} s)")
+    planner = make_planner("stair", preset, seed=0)
+    steps = []
+    for _ in range(args.planning_steps):
+        start = time.perf_counter()
+        decision = planner.next_view(implicit.field, np.array(visited), scene.targets)
+        steps.append(time.perf_counter() - start)
+    print(f"one planning step ({len(decision.candidates)} candidates): median {statistics.median(steps):.1f} s over "
+          f"{args.planning_steps}")
+    print(f"peak resident memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2:.2f} GB")
+
+
+if __name__ == "__main__":
+    main()

@@ -67,8 +67,9 @@ def main():
         start = time.perf_counter()
         decision = planner.next_view(implicit.field, np.array(visited), scene.targets)
         steps.append(time.perf_counter() - start)
-    print(f"one planning step ({len(decision.candidates)} candidates): median {statistics.median(steps):.1f} s over "
-          f"{args.planning_steps}")
+    if steps:
+        print(f"one planning step ({len(decision.candidates)} candidates): median {statistics.median(steps):.1f} s "
+              f"over {args.planning_steps}")
     print(f"peak resident memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2:.2f} GB")
 
 

@@ -167,7 +167,8 @@ def render_rays(
     argmax is not a target class is set to zero (paper Sec. IV-A). ``generator``/``depth`` switch on
     training-time jitter and depth-guided samples. ``skip`` leaves out samples in empty space.
     Colour and class probabilities are evaluated only at samples whose weight exceeds
-    ``colour_weight_threshold`` (the others cannot change the pixel).
+    ``colour_weight_threshold`` (the others cannot change the pixel) and whose occupancy exceeds
+    ``cfg.colour_min_occupancy``.
     """
     samples = sample_field(field, origins, dirs, cfg, n_samples, generator, depth, skip)
     t, occ, sem_logits = samples["t"], samples["occ"], samples["sem_logits"]
@@ -177,7 +178,7 @@ def render_rays(
     weights, transmittance = compositing_weights(occ)
     acc = weights.sum(dim=1)
 
-    active = (weights.detach() > colour_weight_threshold).view(-1)
+    active = ((weights.detach() > colour_weight_threshold) & (occ.detach() > cfg.colour_min_occupancy)).view(-1)
     rgb = sample_colours(field, samples, active)
     colour = (weights[..., None] * rgb.view(r, s, 3)).sum(dim=1) + (1.0 - acc)[:, None]
     depth_map = (weights * t).sum(dim=1)
@@ -254,7 +255,8 @@ def render_target_views_and_cut(field, intrinsics: Intrinsics, poses: list[np.nd
             occ = samples["occ"] * is_target(samples["sem_logits"], targets)
             above = lattice.axis(occ.device)[lattice.nearest_layer(samples["points"][..., 2])] >= z_min
             weights = [compositing_weights(o_)[0] for o_ in (occ, occ * above)]
-            active = (weights[0] > colour_weight_threshold) | (weights[1] > colour_weight_threshold)
+            active = ((weights[0] > colour_weight_threshold) | (weights[1] > colour_weight_threshold)) & (
+                occ > cfg.colour_min_occupancy)
             rgb = sample_colours(field, samples, active.view(-1)).view(*occ.shape, 3)
             for part, wt in zip(parts, weights):
                 part.append((wt[..., None] * rgb).sum(dim=1) + (1.0 - wt.sum(dim=1))[:, None])

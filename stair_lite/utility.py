@@ -141,9 +141,11 @@ class Scores:
 
 def score_views(
     source, views: np.ndarray, targets: tuple[int, ...], intrinsics: Intrinsics, n_samples: int,
-    options: UtilityOptions = UtilityOptions(), chunk_views: int = 25,
+    options: UtilityOptions = UtilityOptions(), chunk_samples: int = 2**22,
 ) -> Scores:
-    """Eqs. 12-15 for every view (elevation, azimuth) of ``views``, rendered in chunks of views."""
+    """Eqs. 12-15 for every view (elevation, azimuth) of ``views``, rendered in chunks of whole views of
+    about ``chunk_samples`` samples (the memory of one chunk; the scores do not depend on it)."""
+    chunk_views = max(1, chunk_samples // (intrinsics.width * intrinsics.height * n_samples))
     u_er, u_et = [], []
     for start in range(0, len(views), chunk_views):
         poses = [view_to_pose(el, az) for el, az in views[start : start + chunk_views]]

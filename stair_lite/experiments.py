@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import json
+import os
 import uuid
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -275,18 +276,26 @@ class dask_client:
         import dask
         from dask.distributed import Client, LocalCluster
 
-        self.cluster = None
+        self.cluster, self.environ = None, dict(os.environ)
         with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
             if self.scheduler is None:
                 self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
                                             dashboard_address=None, silence_logs=logging.ERROR)
             self.client = Client(self.scheduler or self.cluster)
+        self._restore_environment()
         return self.client
 
     def __exit__(self, *exc):
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()  # stops the worker processes, also on Ctrl-C
+        self._restore_environment()
+
+    def _restore_environment(self) -> None:
+        """Starting workers sets OMP_NUM_THREADS=1 (and the like) in this process's environment too;
+        undo it, or every process started from here later (a notebook kernel) runs on one thread."""
+        os.environ.clear()
+        os.environ.update(self.environ)
 
 
 def run_on_cluster(client, release, done, root: Path, spec: SweepSpec, device: str) -> None:

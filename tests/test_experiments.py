@@ -65,7 +65,11 @@ def test_cells_run_seed_by_seed_with_replays_after_their_source():
 
 
 def test_parallel_sweep_starts_a_replay_once_its_source_is_done(tmp_path):
+    import os
+
+    environ = dict(os.environ)
     outcomes = run_sweep(spec(variants=("ste", "ste_implicit")), tmp_path, workers=2, progress=False)
+    assert dict(os.environ) == environ  # the local cluster's workers leave this process's threads alone
     assert [(c.variant, o) for c, o in outcomes] == [("ste", "ran"), ("ste_implicit", "ran")]
     rows = collect(tmp_path)
     assert len(rows) == 4
@@ -100,6 +104,7 @@ def test_a_dead_worker_fails_its_cell_and_the_rerun_completes_the_table(tmp_path
     from dask.distributed import Client, LocalCluster
 
     sweep = spec(variants=("uniform", "fixed", "max_distance"), seeds=(0, 1), budget=3)
+    environ = dict(os.environ)  # starting workers sets OMP_NUM_THREADS=1 here too: restored below
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
         cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
     watcher = Client(cluster)
@@ -124,6 +129,8 @@ def test_a_dead_worker_fails_its_cell_and_the_rerun_completes_the_table(tmp_path
         thread.join()
         watcher.close()
         cluster.close()
+        os.environ.clear()
+        os.environ.update(environ)
     assert killed and len(outcomes) == 6
     failed = [c for c, o in outcomes if o.startswith("failed")]
     assert len(failed) == 1, outcomes

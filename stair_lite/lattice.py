@@ -61,16 +61,21 @@ class Lattice:
         """World coordinates -> [-1, 1]^3 (the vertex coordinates of ``grid_sample``)."""
         return x / self.bound
 
+    def vertex_units(self, x: torch.Tensor) -> torch.Tensor:
+        """World coordinates -> vertex units: vertex i of an axis sits at i."""
+        return (x / self.bound + 1.0) * (0.5 * (self.resolution - 1))
+
     def nearest_index(self, points: torch.Tensor) -> torch.Tensor:
         """Flat index of the vertex nearest to each point (..., 3); points outside snap to the boundary."""
         r = self.resolution
-        ijk = ((self.normalise(points) + 1.0) * 0.5 * (r - 1)).round().long().clamp(0, r - 1)
-        return flat_index(ijk[..., 0], ijk[..., 1], ijk[..., 2], r)
+        ijk = self.vertex_units(points).round_().clamp_(0, r - 1)
+        # the flat index as one float product: exact, since every partial sum is an integer below 2^24
+        return (ijk @ torch.tensor([1.0, r, r * r], dtype=ijk.dtype, device=ijk.device)).long()
 
     def nearest_layer(self, z: torch.Tensor) -> torch.Tensor:
         """Index of the z-layer nearest to each height z (the same rounding as ``nearest_index``)."""
         r = self.resolution
-        return ((z / self.bound + 1.0) * 0.5 * (r - 1)).round().long().clamp(0, r - 1)
+        return self.vertex_units(z).round().long().clamp(0, r - 1)
 
 
 @dataclass(frozen=True)

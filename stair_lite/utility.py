@@ -72,7 +72,8 @@ class FieldSnapshot:
         if self.trilinear:
             flat = trilinear(self.table, self.lattice.resolution, self.lattice.normalise(points.reshape(-1, 3)))
             return flat.view(*points.shape[:-1], -1)
-        return self.table[self.lattice.nearest_index(points)]
+        index = self.lattice.nearest_index(points)
+        return self.table.index_select(0, index.reshape(-1)).view(*index.shape, -1)
 
 
 def exact_samples(field, points: torch.Tensor) -> torch.Tensor:

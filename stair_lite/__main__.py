@@ -122,7 +122,7 @@ def _cmd_run(args):
     print(f"mission: scene {config.scene}, targets {', '.join(CLASS_NAMES[t] for t in mission.targets)}, planner "
           f"{config.planner}, seed {config.seed}, preset {config.preset}, budget {config.budget}"
           + (f" (resuming after step {done})" if done else ""))
-    header = f"{'step':>4} {'elev':>6} {'azim':>6} {'utility':>9} {'loss':>7} {'PSNR':>6} {'prec':>5} {'compl':>5} {'F1':>5} {'plan s':>6} {'train s':>7} {'eval s':>6}"
+    header = f"{'step':>4} {'elev':>6} {'azim':>6} {'utility':>9} {'loss':>7} {'PSNR':>6} {'clean':>6} {'prec':>5} {'compl':>5} {'F1':>5} {'F1 5cm':>6} {'chamf':>6} {'plan s':>6} {'train s':>7} {'eval s':>6}"
     bar = tqdm(total=config.budget, initial=done, desc="steps", unit="step", leave=False, disable=args.quiet)
     tqdm.write(header)
 
@@ -130,8 +130,8 @@ def _cmd_run(args):
         u = f"{r['utility']:9.1f}" if r["utility"] is not None else f"{'-':>9}"
         loss = f"{r['loss']:7.4f}" if r["loss"] is not None else f"{'-':>7}"
         t = r["time_s"]
-        tqdm.write(f"{r['step']:4d} {r['view_deg'][0]:6.1f} {r['view_deg'][1]:6.1f} {u} {loss} {r['psnr']:6.2f} "
-                   f"{r['precision']:5.3f} {r['completeness']:5.3f} {r['f1']:5.3f} {t['plan']:6.2f} {t['train']:7.2f} {t['evaluate']:6.2f}")
+        tqdm.write(f"{r['step']:4d} {r['view_deg'][0]:6.1f} {r['view_deg'][1]:6.1f} {u} {loss} {r['psnr']:6.2f} {r['psnr_clean']:6.2f} "
+                   f"{r['precision']:5.3f} {r['completeness']:5.3f} {r['f1']:5.3f} {r['f1_5cm']:6.3f} {r['chamfer']:6.3f} {t['plan']:6.2f} {t['train']:7.2f} {t['evaluate']:6.2f}")
         bar.update(1)
 
     for r in mission.records:

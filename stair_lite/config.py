@@ -75,6 +75,7 @@ class EvalConfig:
     mesh_resolution: int = 256
     mesh_points: int = 1_000_000
     f1_threshold: float = 0.01  # 1 cm
+    more_f1_thresholds: tuple[float, ...] = (0.02, 0.05)  # F1 also at 2 and 5 cm: it resolves coarse maps
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ are ignored, as the mesh metric ignores them. It averages over the test views th
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -27,6 +27,11 @@ from .lattice import Lattice, xyz
 from .simulator import Simulator, target_only_image
 
 GROUND_CUT_Z = -0.05  # the ground's top is z = 0; nothing below it is observable, so metrics ignore it
+
+
+def f1_column(threshold: float) -> str:
+    """The record column of the F1 score at a threshold [m]: ``f1_2cm``."""
+    return f"f1_{threshold * 100:g}cm"
 
 
 def psnr(prediction: np.ndarray, target: np.ndarray) -> float:
@@ -66,21 +71,32 @@ def extract_mesh(field, resolution: int = 128, targets=None, threshold: float = 
 
 @dataclass
 class MeshScores:
+    """Precision, completeness and F1 at the threshold; chamfer distance [m]; F1 at further thresholds
+    (``f1_at``, keyed by the threshold in metres)."""
+
     precision: float
     completeness: float
     f1: float
     chamfer: float
+    f1_at: dict[float, float] = field(default_factory=dict)
 
 
-def mesh_scores_from_points(pred_points: np.ndarray, gt_tree: cKDTree, gt_points: np.ndarray, threshold: float) -> MeshScores:
-    """Precision, completeness, F1 (fractions in [0, 1]) and chamfer distance [m] between point samples."""
+def f1_score(precision: float, completeness: float) -> float:
+    """The harmonic mean of precision and completeness (0 when both are 0)."""
+    return 0.0 if precision + completeness == 0 else 2 * precision * completeness / (precision + completeness)
+
+
+def mesh_scores_from_points(pred_points: np.ndarray, gt_tree: cKDTree, gt_points: np.ndarray, threshold: float,
+                            more_thresholds: tuple[float, ...] = ()) -> MeshScores:
+    """Precision, completeness, F1 (fractions in [0, 1]) and chamfer distance [m] between point samples;
+    F1 also at ``more_thresholds`` (the distances are computed once)."""
     if len(pred_points) == 0:
-        return MeshScores(0.0, 0.0, 0.0, 1.0)
+        return MeshScores(0.0, 0.0, 0.0, 1.0, dict.fromkeys(more_thresholds, 0.0))
     d_pred, _ = gt_tree.query(pred_points, workers=-1)
     d_gt, _ = cKDTree(pred_points).query(gt_points, workers=-1)
     precision, completeness = float(np.mean(d_pred < threshold)), float(np.mean(d_gt < threshold))
-    f1 = 0.0 if precision + completeness == 0 else 2 * precision * completeness / (precision + completeness)
-    return MeshScores(precision, completeness, f1, float((d_pred.mean() + d_gt.mean()) / 2))
+    f1_at = {t: f1_score(float(np.mean(d_pred < t)), float(np.mean(d_gt < t))) for t in more_thresholds}
+    return MeshScores(precision, completeness, f1_score(precision, completeness), float((d_pred.mean() + d_gt.mean()) / 2), f1_at)
 
 
 def sample_surface(mesh: trimesh.Trimesh | None, n: int, seed: int) -> np.ndarray:
@@ -101,8 +117,9 @@ class Evaluator:
     """Target-only evaluation of a map against one scene: ground truth is rendered and sampled once.
 
     ``evaluate(map)`` takes a map (maps.py) and returns the mean target-only PSNR over the test views
-    (``psnr``, the paper's; ``psnr_clean``), the target-mesh precision / completeness / F1 / chamfer, and
-    the predicted mesh.
+    (``psnr``, the paper's; ``psnr_clean``), the target-mesh precision / completeness / F1 / chamfer, F1 at
+    the further thresholds (``f1_2cm``, ``f1_5cm``), the share of the unobservable volume under the
+    ground that the map fills (``phantom``), and the predicted mesh.
     """
 
     def __init__(self, simulator: Simulator, targets, preset: Preset, seed: int = 0):
@@ -131,7 +148,8 @@ class Evaluator:
         psnr_clean = float(np.mean([psnr(cut[i], self.gt_alone_images[i]) for i in self.views_with_targets]))
         t_render = time.perf_counter() - start
         mesh = reconstruction.target_mesh(self.targets)
-        scores = mesh_scores_from_points(sample_surface(mesh, cfg.mesh_points, self.seed + 1), self.gt_tree, self.gt_points, cfg.f1_threshold)
+        scores = mesh_scores_from_points(sample_surface(mesh, cfg.mesh_points, self.seed + 1), self.gt_tree,
+                                         self.gt_points, cfg.f1_threshold, cfg.more_f1_thresholds)
         return {
             "psnr": float(np.mean(psnrs)),
             "psnr_clean": psnr_clean,
@@ -139,6 +157,8 @@ class Evaluator:
             "completeness": scores.completeness,
             "f1": scores.f1,
             "chamfer": scores.chamfer,
+            **{f1_column(t): f for t, f in scores.f1_at.items()},
+            "phantom": reconstruction.occupied_share_below(GROUND_CUT_Z),
             "mesh": mesh,
             "time_render_s": t_render,
             "time_total_s": time.perf_counter() - start,

@@ -33,6 +33,7 @@ PAPER_SCENES = ("scene1", "scene2", "scene3", "scene4")
 SWEEP_FILE = "sweep.json"
 RESULTS_DIR = Path(__file__).resolve().parent.parent / "data" / "results"  # the stored sweeps
 TABLE_COLUMNS = ("scene", "variant", "seed", "step", "psnr", "psnr_clean", "precision", "completeness", "f1", "chamfer",
+                 "f1_2cm", "f1_5cm", "phantom",
                  *SCORE_COLUMNS, "loss", "elevation_deg", "azimuth_deg", "time_plan_s", "time_train_s", "time_evaluate_s")
 EPSILON_PREFIX = "stair_eps"
 
@@ -351,7 +352,7 @@ def collect(root: str | Path, log=print) -> list[dict]:
             rows.append({
                 "scene": scene, "variant": variant_name, "seed": seed, "step": r["step"],
                 **{k: r[k] for k in ("psnr", "precision", "completeness", "f1", "chamfer", "loss")}, **scores,
-                "psnr_clean": r.get("psnr_clean"),  # missions run before it existed lack it
+                **{k: r.get(k) for k in ("psnr_clean", "f1_2cm", "f1_5cm", "phantom")},  # older missions lack them
                 "elevation_deg": r["view_deg"][0], "azimuth_deg": r["view_deg"][1],
                 "time_plan_s": r["time_s"]["plan"], "time_train_s": r["time_s"]["train"],
                 "time_evaluate_s": r["time_s"]["evaluate"],

@@ -141,6 +141,12 @@ class ExplicitMap(ReconstructionMap):
     def target_mesh(self, targets):
         return self.extract_target_mesh(targets)
 
+    def occupied_share_below(self, z_max):
+        r = self.cfg.resolution
+        centres_z = self.grid.first_centre() + self.voxel * torch.arange(r, device=self.device)
+        layers = int((centres_z < z_max).sum())
+        return float((self.probability.view(r, r, r)[:layers] > 0.5).float().mean()) if layers else 0.0
+
     def target_only_renders(self, intrinsics, poses, targets, z_min):
         """First-hit renders; the same images twice: the map holds only voxels it has seen occupied, so
         there is no unobserved volume under the ground to cut."""

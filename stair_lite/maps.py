@@ -52,6 +52,11 @@ class ReconstructionMap(ABC):
     def target_mesh(self, targets: tuple[int, ...]):
         """The target-only surface as a trimesh (None when nothing is occupied)."""
 
+    @abstractmethod
+    def occupied_share_below(self, z_max: float) -> float:
+        """The share of the map's lattice points below height ``z_max`` with occupancy above 0.5: under
+        the ground no view can see and the scene is empty, so anything there is invented (a phantom)."""
+
     @property
     @abstractmethod
     def planning_source(self):
@@ -96,6 +101,11 @@ class ImplicitMap(ReconstructionMap):
 
     def target_mesh(self, targets):
         return extract_mesh(self.field, self.mesh_resolution, targets=targets)
+
+    def occupied_share_below(self, z_max):
+        points = self.field.lattice.points(self.field.device)
+        below = points[points[:, 2] < z_max]
+        return float((self.field.query(below)["occ"] > 0.5).float().mean()) if len(below) else 0.0
 
     @property
     def planning_source(self) -> SemanticField:

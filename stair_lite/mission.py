@@ -19,7 +19,7 @@ import torch
 
 from .classes import CLASS_NAMES
 from .config import Preset, check_device, get_preset
-from .evaluation import Evaluator
+from .evaluation import Evaluator, f1_column
 from .explicit import ExplicitMap
 from .geometry import TOP_VIEW, view_to_pose
 from .maps import IMPLICIT, MAP_KINDS, ImplicitMap, ReconstructionMap
@@ -206,7 +206,8 @@ class Mission:
             **dict.fromkeys(SCORE_COLUMNS),
             "loss": history[-1].total if history else None,
             "loss_mean_last10": float(np.mean([h.total for h in history[-10:]])) if history else None,
-            **{k: result[k] for k in ("psnr", "psnr_clean", "precision", "completeness", "f1", "chamfer")},
+            **{k: result[k] for k in ("psnr", "psnr_clean", "precision", "completeness", "f1", "chamfer",
+                                      *map(f1_column, self.preset.eval.more_f1_thresholds), "phantom")},
             "time_s": {"plan": t_plan, "measure": t_measure, "train": t_train, "evaluate": result["time_total_s"]},
         }
         if decision is not None and decision.scores is not None:

@@ -2,11 +2,15 @@
 
 Introduced in notebook 01. A scene is a few class meshes standing on a ground plane (class 0) at
 z = 0 inside the scene cube (``lattice.CUBE_BOUND``), plus the scene's default target classes (the paper's Sec. IV-A).
-Colour is baked into the mesh faces with a world-fixed Lambert light, so what the camera sees of
-a surface does not depend on the viewpoint: the field has no view dependence either.
+Every object carries a seeded albedo pattern over its surface (``surface_albedo``), so one glimpse of an
+object does not tell its unseen sides' colours; a scene with ``"albedo": "uniform"`` gives each object
+one colour instead (then colour carries no information a first glimpse lacks). Colour is baked into the mesh faces with a world-fixed
+Lambert light, so what the camera sees of a surface does not depend on the viewpoint: the field has no
+view dependence either.
 """
 from __future__ import annotations
 
+import colorsys
 import json
 from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
@@ -26,7 +30,12 @@ GROUND_COLOUR = (0.62, 0.60, 0.55)
 LIGHT_DIRECTION = np.array([0.35, 0.55, 1.0]) / np.linalg.norm([0.35, 0.55, 1.0])  # towards the light
 AMBIENT, DIFFUSE = 0.45, 0.55
 
-# A default surface colour per class (floats), used when an object spec gives none.
+ALBEDOS = ("pattern", "uniform")  # how a scene colours its objects (``SceneSpec.albedo``)
+PATTERN_PERIOD = (0.1, 0.25)  # range of the seeded stripe periods of an albedo pattern, in object sizes
+MIN_PERIOD = 0.06  # [m]: no stripe is finer than this (a lite grid cell is 4.8 cm)
+FACE_EDGE = 0.03  # [m]: faces are split to at most this edge length before colouring, so patterns resolve
+
+# A default base colour per class (floats), used when an object spec gives none.
 DEFAULT_COLOURS = {
     "car": (0.80, 0.15, 0.12),
     "chair": (0.55, 0.35, 0.20),
@@ -62,6 +71,11 @@ class SceneSpec:
     objects: tuple[ObjectSpec, ...]
     targets: tuple[int, ...]
     description: str = ""
+    albedo: str = "pattern"  # "pattern": seeded many-coloured surfaces; "uniform": one colour per object
+
+    def __post_init__(self):
+        if self.albedo not in ALBEDOS:
+            raise ValueError(f"scene {self.name!r}: albedo must be one of {', '.join(ALBEDOS)}, got {self.albedo!r}")
 
     def to_json(self) -> dict:
         """The JSON form, with class names instead of ids."""
@@ -76,6 +90,7 @@ class SceneSpec:
         return {
             "name": self.name,
             "description": self.description,
+            "albedo": self.albedo,
             "targets": [CLASS_NAMES[t] for t in self.targets],
             "objects": objects,
         }
@@ -87,14 +102,45 @@ def _unplaced_mesh(cls: int, source: str, seed: int) -> trimesh.Trimesh:
     return class_mesh(cls, source, seed=seed)
 
 
-def _bake_colour(mesh: trimesh.Trimesh, colour) -> trimesh.Trimesh:
-    """Give every face a view-independent colour: colour * (ambient + diffuse * max(0, n . l))."""
+def surface_albedo(points: np.ndarray, colour, seed: int, size: float = 1.0) -> np.ndarray:
+    """A seeded albedo (N, 3) at surface points (N, 3) given in the object's own frame: two crossed
+    stripe patterns (seeded directions at most 45 degrees from the horizontal, so that tops are striped
+    too) pick, per patch, one of three colours: the base colour, a light tint of it, and an accent of a
+    seeded hue away from the base's (a third of the colour wheel either side of its opposite); the periods are fractions ``PATTERN_PERIOD``
+    of the object's ``size`` [m], at least ``MIN_PERIOD``. The pattern moves with the object."""
+    rng = np.random.default_rng(seed)
+    heading, tilt = rng.uniform(0.0, 2 * np.pi, size=2), rng.uniform(-np.pi / 4, np.pi / 4, size=2)
+    directions = np.stack([np.cos(tilt) * np.cos(heading), np.cos(tilt) * np.sin(heading), np.sin(tilt)], axis=1)
+    periods = np.maximum(size * rng.uniform(*PATTERN_PERIOD, size=2), MIN_PERIOD)
+    phases = rng.uniform(0.0, 1.0, size=2)
+    base = np.asarray(colour, dtype=np.float64)
+    hue = colorsys.rgb_to_hsv(*base)[0] + 0.5 + rng.uniform(-1 / 3, 1 / 3)
+    accent = np.array(colorsys.hsv_to_rgb(hue % 1.0, 0.75, 0.9))
+    palette = np.stack([base, 0.5 * (base + 1.0), accent])
+    stripes = np.floor(points @ directions.T / periods + phases).astype(np.int64)  # (N, 2) stripe numbers
+    return palette[(stripes[:, 0] + 2 * stripes[:, 1]) % 3]
+
+
+def _bake_colour(mesh: trimesh.Trimesh, albedo) -> trimesh.Trimesh:
+    """Give every face a view-independent colour: albedo * (ambient + diffuse * max(0, n . l)); ``albedo``
+    is one colour (3,) or one per face (F, 3)."""
     shade = AMBIENT + DIFFUSE * np.clip(mesh.face_normals @ LIGHT_DIRECTION, 0.0, None)
-    rgb = np.clip(np.asarray(colour, dtype=np.float64)[None, :] * shade[:, None], 0.0, 1.0)
+    albedo = np.broadcast_to(np.asarray(albedo, dtype=np.float64), (len(shade), 3))
+    rgb = np.clip(albedo * shade[:, None], 0.0, 1.0)
     rgba = np.concatenate([np.round(rgb * 255), np.full((len(rgb), 1), 255)], axis=1).astype(np.uint8)
     mesh = mesh.copy()
     mesh.visual = trimesh.visual.ColorVisuals(mesh, face_colors=rgba)
     return mesh
+
+
+def _patterned(mesh: trimesh.Trimesh, placement: np.ndarray, colour, seed: int) -> trimesh.Trimesh:
+    """The placed ``mesh`` with faces split to ``FACE_EDGE`` and baked with its albedo pattern, which is
+    evaluated in the object's frame (``placement`` maps that frame to the world)."""
+    vertices, faces = trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, max_edge=FACE_EDGE)
+    fine = trimesh.Trimesh(vertices, faces, process=False)
+    local = trimesh.transform_points(fine.triangles_center, np.linalg.inv(placement))
+    size = float(np.max(mesh.extents))
+    return _bake_colour(fine, surface_albedo(local, colour, seed, size))
 
 
 def ground_mesh() -> trimesh.Trimesh:
@@ -215,9 +261,9 @@ def build_scene(spec: SceneSpec) -> Scene:
         if obj.scale <= 0:
             raise ValueError(f"object {index} ({obj.class_name}): scale must be positive, got {obj.scale!r}")
         mesh.apply_scale(obj.scale)
-        yaw = trimesh.transformations.rotation_matrix(np.radians(obj.yaw_deg), (0, 0, 1))
-        mesh.apply_transform(yaw)
-        mesh.apply_translation((obj.position[0], obj.position[1], 0.0))
+        placement = trimesh.transformations.rotation_matrix(np.radians(obj.yaw_deg), (0, 0, 1))
+        placement[:2, 3] = obj.position
+        mesh.apply_transform(placement)
         lo, hi = mesh.bounds
         if np.any(lo < -CUBE_BOUND) or np.any(hi > CUBE_BOUND):
             raise ValueError(
@@ -232,7 +278,7 @@ def build_scene(spec: SceneSpec) -> Scene:
                 )
         placed.append(mesh)
         colour = obj.colour if obj.colour is not None else DEFAULT_COLOURS[obj.class_name]
-        meshes.append(_bake_colour(mesh, colour))
+        meshes.append(_patterned(mesh, placement, colour, obj.seed) if spec.albedo == "pattern" else _bake_colour(mesh, colour))
     return Scene(spec=spec, object_meshes=meshes, ground=ground_mesh())
 
 
@@ -280,7 +326,8 @@ def spec_from_json(data: dict, source: str = "scene") -> SceneSpec:
     if missing:
         raise ValueError(f"{source}: targets {missing} do not occur among the scene's objects")
     return SceneSpec(
-        name=str(data.get("name", source)), objects=tuple(objects), targets=targets, description=str(data.get("description", ""))
+        name=str(data.get("name", source)), objects=tuple(objects), targets=targets, description=str(data.get("description", "")),
+        albedo=str(data.get("albedo", "pattern")),
     )
 
 
@@ -339,7 +386,7 @@ def place_objects(items, rng: np.random.Generator, max_radius: float = 1.0, max_
                 seed=int(rng.integers(0, 10_000)),
             )
             try:
-                build_scene(SceneSpec("probe", tuple(placed + [candidate]), (cls,)))
+                build_scene(SceneSpec("probe", tuple(placed + [candidate]), (cls,), albedo="uniform"))  # geometry only
             except ValueError:
                 continue
             placed.append(candidate)

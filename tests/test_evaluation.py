@@ -5,7 +5,10 @@ import trimesh
 
 import stair_lite  # noqa: F401
 from stair_lite.config import FieldConfig, get_preset
-from stair_lite.evaluation import Evaluator, extract_mesh, mesh_scores, psnr
+from scipy.spatial import cKDTree
+
+from stair_lite.evaluation import Evaluator, extract_mesh, f1_column, mesh_scores, mesh_scores_from_points, psnr, sample_surface
+from stair_lite.explicit import ExplicitMap
 from stair_lite.lattice import CUBE_BOUND, Lattice
 from stair_lite.maps import ImplicitMap
 from stair_lite.scenes import load_scene
@@ -146,3 +149,33 @@ def test_above_drops_only_the_cells_below_the_cut():
     assert np.array_equal(cut[:, 0, 0].numpy(), z >= GROUND_CUT_Z) and cut[:, 3, 7].equal(cut[:, 0, 0])
     points = lattice.points()
     assert torch.equal(cut.reshape(-1), points[:, 2] >= GROUND_CUT_Z)  # the flat order is the lattice's
+
+
+def test_f1_at_more_thresholds_counts_points_within_each_distance():
+    """Two parallel planes 3 cm apart: every point is 3 cm from the other plane, so F1 is 0 at 1 and 2 cm
+    and 1 at 5 cm; the thresholds share one distance computation with the paper's 1 cm score."""
+    plane = trimesh.creation.box(extents=(0.6, 0.6, 1e-4))
+    lifted = plane.copy()
+    lifted.apply_translation((0, 0, 0.03))
+    pred, gt = sample_surface(lifted, 5000, 1), sample_surface(plane, 5000, 0)
+    scores = mesh_scores_from_points(pred, cKDTree(gt), gt, 0.01, (0.02, 0.05))
+    assert scores.f1 == 0.0 and scores.f1_at[0.02] == 0.0 and scores.f1_at[0.05] > 0.99
+    assert f1_column(0.02) == "f1_2cm" and f1_column(0.05) == "f1_5cm"
+    assert mesh_scores_from_points(np.zeros((0, 3)), cKDTree(gt), gt, 0.01, (0.05,)).f1_at == {0.05: 0.0}
+
+
+def test_occupied_share_below_counts_the_phantom_under_the_ground():
+    """A field that fills everything below z = -0.5 has that share of the sub-ground lattice occupied; a
+    voxel map that observed nothing has none (unknown is p = 0.5, not occupied)."""
+    preset = get_preset("smoke")
+    implicit = ImplicitMap.from_preset(preset)
+    with torch.no_grad():  # features that saturate the occupancy below z = -0.5
+        points = implicit.field.lattice.points()
+        implicit.field.grid[points[:, 2] < -0.5, : preset.field.occ_channels] = 1e3
+        implicit.field.occ_mlp[-1].bias.fill_(0.0)
+    lattice_z = implicit.field.lattice.axis()
+    below = lattice_z[lattice_z < -0.05]
+    expected = float((below < -0.5).float().mean())
+    share = implicit.occupied_share_below(-0.05)
+    assert 0.3 < expected and abs(share - expected) < 0.5 / len(below), (share, expected)
+    assert ExplicitMap.from_preset(preset).occupied_share_below(-0.05) == 0.0

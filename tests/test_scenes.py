@@ -1,10 +1,14 @@
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from stair_lite.classes import class_id, target_ids
 from stair_lite.scenes import (
+    AMBIENT,
+    DIFFUSE,
+    LIGHT_DIRECTION,
     ObjectSpec,
     SceneSpec,
     build_scene,
@@ -14,6 +18,7 @@ from stair_lite.scenes import (
     random_scene_spec,
     save_scene_spec,
     spec_from_json,
+    surface_albedo,
 )
 
 PAPER_TARGETS = {"scene1": ["car"], "scene2": ["camera"], "scene3": ["sofa"], "scene4": ["car", "airplane"]}
@@ -160,3 +165,44 @@ def test_walled_ablation_scene_shows_its_hidden_chair_from_few_views():
     other = object_pixels(name, 0, views) >= MIN_PIXELS
     assert not hidden[0] and other[0]
     assert 0.05 < hidden[1:].mean() < 0.25 and other[1:].mean() > 0.6
+
+
+def face_albedo(mesh) -> np.ndarray:
+    """The albedo of each face of a baked mesh: its colour with the shading divided out (to 8-bit precision)."""
+    shade = AMBIENT + DIFFUSE * np.clip(mesh.face_normals @ LIGHT_DIRECTION, 0.0, None)
+    return mesh.visual.face_colors[:, :3] / 255.0 / shade[:, None]
+
+
+def albedo_shares(mesh) -> np.ndarray:
+    """Surface shares of the distinct albedos of a baked mesh (rounded to 0.1)."""
+    _, which = np.unique(np.round(face_albedo(mesh), 1), axis=0, return_inverse=True)
+    return np.bincount(which.ravel(), weights=mesh.area_faces) / mesh.area
+
+
+def test_every_object_has_a_many_coloured_surface():
+    """Colour carries information: with patterned albedo, on every object of every shipped scene at least
+    three albedo colours each cover a sizeable share of the surface, so the unseen sides cannot be guessed
+    from one glimpse; a uniform scene gives each object one albedo."""
+    for name in list_scenes():
+        spec = load_scene_spec(name)
+        for mesh, obj in zip(build_scene(replace(spec, albedo="pattern")).object_meshes, spec.objects):
+            shares = albedo_shares(mesh)
+            assert np.sum(shares > 0.1) >= 2 and np.sum(shares > 0.03) >= 3, (name, obj.class_name, np.sort(shares)[::-1][:4])
+        for mesh in build_scene(replace(spec, albedo="uniform")).object_meshes:
+            albedo = face_albedo(mesh)
+            assert np.abs(albedo - np.median(albedo, axis=0)).max() < 0.02
+    assert build_scene(random_scene_spec(5)).spec.albedo == "pattern"  # new scenes are patterned
+    with pytest.raises(ValueError, match="albedo must be one of"):
+        spec_from_json({**load_scene_spec("scene1").to_json(), "albedo": "striped"})
+
+
+def test_albedo_pattern_is_seeded_and_moves_with_its_object():
+    spec = replace(load_scene_spec("scene1"), albedo="pattern")
+    moved = replace(spec, objects=(replace(spec.objects[0], position=(0.2, 0.4), yaw_deg=spec.objects[0].yaw_deg + 40),))
+    first, again = build_scene(spec).object_meshes[0], build_scene(moved).object_meshes[0]
+    up = (first.face_normals[:, 2] > 0.99) & (again.face_normals[:, 2] > 0.99)  # same shading: upward faces
+    same = np.all(first.visual.face_colors[up] == again.visual.face_colors[up], axis=1)
+    assert up.sum() > 10 and same.mean() > 0.98  # (faces whose centre lies on a stripe's edge may flip)
+    points = np.random.default_rng(0).uniform(-0.5, 0.5, size=(500, 3))
+    assert np.array_equal(surface_albedo(points, (0.5, 0.2, 0.1), 3), surface_albedo(points, (0.5, 0.2, 0.1), 3))
+    assert not np.array_equal(surface_albedo(points, (0.5, 0.2, 0.1), 3), surface_albedo(points, (0.5, 0.2, 0.1), 4))

@@ -111,7 +111,7 @@ def render_uncertainty(
         occ, entropy = occ.masked_fill(empty, 0.0), entropy.masked_fill(empty, 0.0)
     weights, transmittance = compositing_weights(occ)
     h_ray = (transmittance * entropy).sum(dim=1)  # Eq. 11
-    sem = (weights[..., None] * probs).sum(dim=1)
+    sem = torch.bmm(weights[:, None, :], probs).squeeze(1)  # sum_i w_i s_i, one small product per ray
     sem[:, BACKGROUND] += 1.0 - weights.sum(dim=1)
     v, h, w = len(poses), intrinsics.height, intrinsics.width
     return {"h_ray": h_ray.view(v, h, w), "sem": sem.view(v, h, w, NUM_CLASSES)}

@@ -42,7 +42,8 @@ def main():
             start = time.perf_counter()
             result = evaluator.evaluate(implicit)
             evals.append(time.perf_counter() - start)
-            line += f" | evaluation {evals[-1]:.2f} s: PSNR {result['psnr']:.2f} dB, F1 {result['f1']:.3f}"
+            line += (f" | evaluation {evals[-1]:.2f} s: PSNR {result['psnr']:.2f} dB (clean {result['psnr_clean']:.2f}), "
+                     f"F1 {result['f1']:.3f} (5 cm {result['f1_5cm']:.3f}), phantom {result['phantom']:.3f}")
         print(line, flush=True)
     peak_gb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
     print(f"preset {preset.name}: {preset.train.iterations_per_view} iterations/view, "

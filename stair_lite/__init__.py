@@ -2,9 +2,13 @@
 
 Import this package before pyrender: offscreen rendering needs ``PYOPENGL_PLATFORM`` set before
 PyOpenGL is first imported (EGL by default; export ``PYOPENGL_PLATFORM=osmesa`` to choose OSMesa).
+Importing it also keeps freed tensor memory for reuse (``allocator.py``).
 """
 import os
 
+from .allocator import keep_freed_memory
+
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+keep_freed_memory()
 
 __version__ = "0.1.0"

@@ -2,13 +2,17 @@
 interpolation (Eq. 1), a positional encoding gamma, and heads for occupancy, colour and semantics.
 
 Introduced in notebook 02 (occupancy and colour) and notebook 03 (semantics).
-Grid layout: the grids are stored channels-last as one table of shape (R^3, C) over the field's
+Grid layout: the grids are stored channels-last as tables of shape (R^3, C) over the field's
 ``Lattice`` (lattice.py): row (k R + j) R + i holds the features of vertex (x_i, y_j, z_k), and vertex i
 is at x = -bound + i * 2 bound / (R - 1), the convention of ``F.grid_sample(..., align_corners=True)``.
-A hand-written trilinear lookup with its own backward pass (a scatter-add into the touched rows)
-is about twice as fast on a CPU as ``grid_sample`` and gives the same numbers (notebook 02 checks).
+Two tables: ``grid_occ`` holds V_occ, read at every sample; ``grid_app`` holds V_rgb and V_sem side by
+side, read only where colour and classes can matter. A hand-written trilinear lookup (forward: one
+weighted ``embedding_bag``; backward: a scatter-add into the touched rows) gives the numbers of
+``grid_sample`` (notebook 02 checks) several times faster on a CPU.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import torch
 import torch.nn.functional as F
@@ -50,7 +54,8 @@ class _TrilinearLookup(torch.autograd.Function):
     def forward(ctx, table, index, weights):
         ctx.save_for_backward(index, weights)
         ctx.rows = table.shape[0]
-        return torch.einsum("nk,nkc->nc", weights, table[index])
+        # a weighted sum of 8 table rows per point: exactly what a weighted embedding bag computes
+        return F.embedding_bag(index, table, per_sample_weights=weights, mode="sum")
 
     @staticmethod
     def backward(ctx, grad_out):
@@ -67,6 +72,27 @@ def trilinear(table: torch.Tensor, resolution: int, x_normalised: torch.Tensor) 
     return _TrilinearLookup.apply(table, index, weights)
 
 
+@dataclass
+class Located:
+    """Points located in the field's lattice: their 8 corner rows and trilinear weights, and gamma(x).
+    Computed once per sample; every table is then read at the same corners."""
+
+    index: torch.Tensor  # (N, 8) rows of the (R^3, C) tables
+    weights: torch.Tensor  # (N, 8) trilinear weights
+    pe: torch.Tensor  # (N, 21) positional encoding
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    def subset(self, rows: torch.Tensor) -> "Located":
+        """The same for the points selected by ``rows`` (a boolean mask or indices)."""
+        return Located(self.index[rows], self.weights[rows], self.pe[rows])
+
+    def read(self, table: torch.Tensor) -> torch.Tensor:
+        """interp(x, V) of Eq. 1 for a (R^3, C) table: (N, C)."""
+        return _TrilinearLookup.apply(table, self.index, self.weights)
+
+
 def mlp(n_in: int, hidden: tuple[int, ...], n_out: int) -> nn.Sequential:
     """A ReLU MLP with the given hidden widths."""
     layers, width = [], n_in
@@ -80,9 +106,10 @@ def mlp(n_in: int, hidden: tuple[int, ...], n_out: int) -> nn.Sequential:
 class SemanticField(nn.Module):
     """Occupancy o(x) in [0, 1], colour c(x) in [0, 1]^3 and semantic probabilities s(x) over the classes.
 
-    The three grids V_occ, V_rgb, V_sem are channel slices of one (R^3, C) table, so one trilinear
-    lookup serves all three. The semantic head is the identity (softmax of the interpolated V_sem, no
-    positional encoding), as the paper states; colour has no view dependence.
+    V_occ is the table ``grid_occ``; V_rgb and V_sem are channel slices of ``grid_app``, so one trilinear
+    lookup serves both, and only where colour and classes are needed. The semantic head is the identity
+    (softmax of the interpolated V_sem, no positional encoding), as the paper states; colour has no view
+    dependence.
     """
 
     def __init__(self, cfg: FieldConfig, seed: int = 0):
@@ -90,50 +117,63 @@ class SemanticField(nn.Module):
         self.cfg = cfg
         self.lattice = Lattice(cfg.grid_resolution, cfg.bound)  # the field owns its world-to-grid mapping
         r = cfg.grid_resolution
-        channels = cfg.occ_channels + cfg.rgb_channels + cfg.sem_channels
-        self.grid = nn.Parameter(torch.zeros(r**3, channels))
+        self.grid_occ = nn.Parameter(torch.zeros(r**3, cfg.occ_channels))
+        self.grid_app = nn.Parameter(torch.zeros(r**3, cfg.rgb_channels + cfg.sem_channels))
         pe_dim = 3 * (1 + 2 * cfg.pe_frequencies)
         generator_state = torch.random.get_rng_state()
         torch.manual_seed(seed)  # MLP initialisation is seeded, and the global state is restored after
         self.occ_mlp = mlp(cfg.occ_channels + pe_dim, cfg.occ_hidden, 1)
         self.rgb_mlp = mlp(cfg.rgb_channels + pe_dim, cfg.rgb_hidden, 3)
         torch.random.set_rng_state(generator_state)
-        self._splits = (cfg.occ_channels, cfg.rgb_channels, cfg.sem_channels)
 
-    def _grid_view(self, start: int, stop: int) -> torch.Tensor:
-        r = self.cfg.grid_resolution
-        return self.grid[:, start:stop].t().reshape(stop - start, r, r, r)
+    @staticmethod
+    def _grid_view(table: torch.Tensor, start: int, stop: int, r: int) -> torch.Tensor:
+        return table[:, start:stop].t().reshape(stop - start, r, r, r)
 
     @property
     def V_occ(self) -> torch.Tensor:
         """The occupancy feature grid, (T_occ, R, R, R) indexed [channel, z, y, x]."""
-        return self._grid_view(0, self._splits[0])
+        return self._grid_view(self.grid_occ, 0, self.cfg.occ_channels, self.cfg.grid_resolution)
 
     @property
     def V_rgb(self) -> torch.Tensor:
         """The colour feature grid, (T_rgb, R, R, R)."""
-        return self._grid_view(self._splits[0], self._splits[0] + self._splits[1])
+        return self._grid_view(self.grid_app, 0, self.cfg.rgb_channels, self.cfg.grid_resolution)
 
     @property
     def V_sem(self) -> torch.Tensor:
         """The semantic grid, (T_sem, R, R, R): per-vertex class logits."""
-        return self._grid_view(self._splits[0] + self._splits[1], sum(self._splits))
+        c = self.cfg
+        return self._grid_view(self.grid_app, c.rgb_channels, c.rgb_channels + c.sem_channels, c.grid_resolution)
 
     @property
     def device(self) -> torch.device:
-        return self.grid.device
+        return self.grid_occ.device
 
     def param_groups(self, cfg: TrainConfig) -> list[dict]:
         """The optimiser's parameter groups: the grids at ``lr_grid``, the MLPs at ``lr_mlp``."""
         mlps = list(self.occ_mlp.parameters()) + list(self.rgb_mlp.parameters())
-        return [{"params": [self.grid], "lr": cfg.lr_grid}, {"params": mlps, "lr": cfg.lr_mlp}]
+        return [{"params": [self.grid_occ, self.grid_app], "lr": cfg.lr_grid}, {"params": mlps, "lr": cfg.lr_mlp}]
+
+    def locate(self, x: torch.Tensor) -> Located:
+        """Corner rows, trilinear weights and gamma(x) of world points x (N, 3)."""
+        xn = self.lattice.normalise(x)
+        index, weights = corner_indices_and_weights(xn, self.cfg.grid_resolution)
+        return Located(index, weights, positional_encoding(xn, self.cfg.pe_frequencies))
+
+    def occupancy_at(self, located: Located) -> torch.Tensor:
+        """o at located points (N,): V_occ read there, then the occupancy head."""
+        return self.occupancy_from(located.read(self.grid_occ), located.pe)
+
+    def appearance_at(self, located: Located) -> tuple[torch.Tensor, torch.Tensor]:
+        """(f_rgb, f_sem) at located points: V_rgb and V_sem read there in one lookup."""
+        return torch.split(located.read(self.grid_app), (self.cfg.rgb_channels, self.cfg.sem_channels), dim=1)
 
     def features(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """(f_occ, f_rgb, f_sem, gamma(x)) at world points x (N, 3)."""
-        xn = self.lattice.normalise(x)
-        f = trilinear(self.grid, self.cfg.grid_resolution, xn)
-        f_occ, f_rgb, f_sem = torch.split(f, self._splits, dim=1)
-        return f_occ, f_rgb, f_sem, positional_encoding(xn, self.cfg.pe_frequencies)
+        located = self.locate(x)
+        f_rgb, f_sem = self.appearance_at(located)
+        return located.read(self.grid_occ), f_rgb, f_sem, located.pe
 
     def occupancy_from(self, f_occ: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:
         """o = 1 - exp(-softplus(MLP_occ(f_occ, gamma) + shift)), a probability in [0, 1)."""

@@ -93,9 +93,12 @@ class SkipGrid:
 
 
 @torch.no_grad()
-def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: float = 1e-3) -> SkipGrid:
+def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: float = 1e-3,
+                    also_keep: torch.Tensor | None = None) -> SkipGrid:
     """Mark the field's lattice vertices with occupancy above ``threshold`` (and, with ``targets``, a
-    target class as semantic argmax), dilated by one vertex so that no occupied space is skipped."""
+    target class as semantic argmax), dilated by one vertex so that no occupied space is skipped.
+    ``also_keep`` (R^3,) marks further vertices to keep whatever the field says there (training keeps
+    the measured surfaces, so that the field can learn a surface where it believes space is empty)."""
     lattice = field.lattice
     r = lattice.resolution
     q = field.query(lattice.points(field.device))
@@ -103,7 +106,8 @@ def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: fl
     def dilate(mask):
         return torch.nn.functional.max_pool3d(mask.view(1, 1, r, r, r).float(), 3, stride=1, padding=1).view(-1) > 0
 
-    keep = dilate(q["occ"] > threshold)
+    occupied = q["occ"] > threshold
+    keep = dilate(occupied if also_keep is None else occupied | also_keep)
     if targets is not None:
         keep &= dilate(torch.isin(q["sem"].argmax(dim=1), torch.as_tensor(targets, device=field.device)))
     return SkipGrid(keep, lattice)
@@ -111,10 +115,12 @@ def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: fl
 
 def sample_field(field, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderConfig, n_samples: int | None = None,
                  generator: torch.Generator | None = None, depth: torch.Tensor | None = None,
-                 skip: SkipGrid | None = None) -> dict[str, torch.Tensor]:
-    """Samples along rays and what the field says there: parameters t (R, S), points (R, S, 3), occupancy
-    (R, S) and class logits (R, S, P), zero where the field is not evaluated (outside the cube, or in a
-    cell ``skip`` leaves out), plus the colour features and encodings of the evaluated samples."""
+                 skip: SkipGrid | None = None, semantics: bool = False) -> dict[str, torch.Tensor]:
+    """Samples along rays and the field's occupancy there: parameters t (R, S), points (R, S, 3), occupancy
+    (R, S), zero where the field is not evaluated (outside the cube, or in a cell ``skip`` leaves out), the
+    flat mask ``evaluate`` of evaluated samples and their ``located`` corners (``SemanticField.locate``).
+    With ``semantics``, also the class logits (R, S, P) of the evaluated samples (zero elsewhere) and their
+    colour features ``f_rgb``, from one lookup of the appearance grid."""
     t_near, t_far, hit = ray_box_intersection(origins, dirs, field.lattice.bound, cfg.near)
     t_far = torch.where(hit, t_far, t_near + 1e-3)
     t = sample_along_rays(
@@ -127,12 +133,15 @@ def sample_field(field, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderCo
     if skip is not None:
         evaluate = evaluate & skip.lookup(points)
     evaluate = evaluate.reshape(-1)
-    f_occ, f_rgb, f_sem, pe = field.features(points.reshape(-1, 3)[evaluate])
+    located = field.locate(points.reshape(-1, 3)[evaluate])
     where = (evaluate.nonzero().squeeze(1),)
-    occ = torch.zeros(r * s, device=t.device).index_put(where, field.occupancy_from(f_occ, pe))
-    sem_logits = torch.zeros(r * s, f_sem.shape[1], device=t.device).index_put(where, f_sem)
-    return {"t": t, "points": points, "occ": occ.view(r, s), "sem_logits": sem_logits.view(r, s, -1),
-            "evaluate": evaluate, "f_rgb": f_rgb, "pe": pe}
+    occ = torch.zeros(r * s, device=t.device).index_put(where, field.occupancy_at(located))
+    out = {"t": t, "points": points, "occ": occ.view(r, s), "evaluate": evaluate, "located": located}
+    if semantics:
+        f_rgb, f_sem = field.appearance_at(located)
+        out["sem_logits"] = torch.zeros(r * s, f_sem.shape[1], device=t.device).index_put(where, f_sem).view(r, s, -1)
+        out["f_rgb"] = f_rgb
+    return out
 
 
 def is_target(sem_logits: torch.Tensor, targets: tuple[int, ...]) -> torch.Tensor:
@@ -140,13 +149,24 @@ def is_target(sem_logits: torch.Tensor, targets: tuple[int, ...]) -> torch.Tenso
     return torch.isin(sem_logits.argmax(dim=-1), torch.as_tensor(targets, device=sem_logits.device))
 
 
-def sample_colours(field, samples: dict[str, torch.Tensor], active: torch.Tensor) -> torch.Tensor:
-    """Colour (R S, 3) of the ``active`` samples (a flat mask, a subset of the evaluated ones); 0 elsewhere."""
-    rgb = torch.zeros(len(active), 3, device=active.device)
-    if active.any():
-        rows = active[samples["evaluate"]]  # positions of the active samples among the evaluated ones
-        rgb = rgb.index_put((active.nonzero().squeeze(1),), field.colour_from(samples["f_rgb"][rows], samples["pe"][rows]))
-    return rgb
+def sample_appearance(field, samples: dict[str, torch.Tensor], active: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Colour (R S, 3) and class probabilities (R S, P) of the ``active`` samples (a flat mask, a subset of
+    the evaluated ones), zero elsewhere: the appearance grid is read at the active samples only (or taken
+    from ``samples`` when ``sample_field`` already read it)."""
+    n, n_classes = len(active), field.cfg.sem_channels
+    rgb = torch.zeros(n, 3, device=active.device)
+    probs = torch.zeros(n, n_classes, device=active.device)
+    if not active.any():
+        return rgb, probs
+    rows = active[samples["evaluate"]]  # positions of the active samples among the evaluated ones
+    located = samples["located"].subset(rows)
+    if "f_rgb" in samples:
+        f_rgb, f_sem = samples["f_rgb"][rows], samples["sem_logits"].view(n, -1)[active]
+    else:
+        f_rgb, f_sem = field.appearance_at(located)
+    where = (active.nonzero().squeeze(1),)
+    return (rgb.index_put(where, field.colour_from(f_rgb, located.pe)),
+            probs.index_put(where, torch.softmax(f_sem, dim=-1)))
 
 
 def render_rays(
@@ -170,23 +190,20 @@ def render_rays(
     ``colour_weight_threshold`` (the others cannot change the pixel) and whose occupancy exceeds
     ``cfg.colour_min_occupancy``.
     """
-    samples = sample_field(field, origins, dirs, cfg, n_samples, generator, depth, skip)
-    t, occ, sem_logits = samples["t"], samples["occ"], samples["sem_logits"]
+    samples = sample_field(field, origins, dirs, cfg, n_samples, generator, depth, skip, semantics=targets is not None)
+    t, occ = samples["t"], samples["occ"]
     r, s = t.shape
     if targets is not None:
-        occ = occ * is_target(sem_logits, targets)
+        occ = occ * is_target(samples["sem_logits"], targets)
     weights, transmittance = compositing_weights(occ)
     acc = weights.sum(dim=1)
 
     active = ((weights.detach() > colour_weight_threshold) & (occ.detach() > cfg.colour_min_occupancy)).view(-1)
-    rgb = sample_colours(field, samples, active)
+    rgb, probs = sample_appearance(field, samples, active)
     colour = (weights[..., None] * rgb.view(r, s, 3)).sum(dim=1) + (1.0 - acc)[:, None]
     depth_map = (weights * t).sum(dim=1)
     # Semantic rendering (Eq. 4) uses detached weights, as the reference code does: semantics do not
     # move geometry. Like colour, class probabilities are computed only where the weight matters.
-    probs = torch.zeros(r * s, NUM_CLASSES, device=t.device)
-    if active.any():
-        probs = probs.index_put((active.nonzero().squeeze(1),), torch.softmax(sem_logits.view(r * s, -1)[active], dim=-1))
     sem = (weights.detach()[..., None] * probs.view(r, s, -1)).sum(dim=1)
     sem = sem + torch.nn.functional.one_hot(torch.tensor(BACKGROUND), NUM_CLASSES).to(sem) * (1.0 - acc.detach())[:, None]
     return {
@@ -251,13 +268,13 @@ def render_target_views_and_cut(field, intrinsics: Intrinsics, poses: list[np.nd
         origins, dirs = (torch.as_tensor(a, dtype=torch.float32, device=field.device) for a in pixel_rays(intrinsics, pose))
         parts = ([], [])
         for o, d in zip(torch.split(origins, cfg.chunk_rays), torch.split(dirs, cfg.chunk_rays)):
-            samples = sample_field(field, o, d, cfg, skip=skip)
+            samples = sample_field(field, o, d, cfg, skip=skip, semantics=True)
             occ = samples["occ"] * is_target(samples["sem_logits"], targets)
             above = lattice.axis(occ.device)[lattice.nearest_layer(samples["points"][..., 2])] >= z_min
             weights = [compositing_weights(o_)[0] for o_ in (occ, occ * above)]
             active = ((weights[0] > colour_weight_threshold) | (weights[1] > colour_weight_threshold)) & (
                 occ > cfg.colour_min_occupancy)
-            rgb = sample_colours(field, samples, active.view(-1)).view(*occ.shape, 3)
+            rgb = sample_appearance(field, samples, active.view(-1))[0].view(*occ.shape, 3)
             for part, wt in zip(parts, weights):
                 part.append((wt[..., None] * rgb).sum(dim=1) + (1.0 - wt.sum(dim=1))[:, None])
         full.append(torch.cat(parts[0]).clamp(0, 1).view(h, w, 3).cpu().numpy())

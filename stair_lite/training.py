@@ -14,8 +14,8 @@ import torch
 
 from .config import RenderConfig, TrainConfig
 from .geometry import pixel_rays
-from .measurement import Measurement
-from .rendering import render_rays
+from .measurement import Measurement, back_project
+from .rendering import SkipGrid, build_skip_grid, render_rays
 
 LOG_CLAMP = 1e-6  # probabilities are clamped before log(): cross entropy stays finite
 
@@ -155,6 +155,9 @@ class Trainer:
         self.generator = torch.Generator(device=field.device).manual_seed(seed)
         self.optimizer = torch.optim.Adam(field.param_groups(train_cfg), betas=(0.9, 0.99), fused=True)
         self.iterations = 0
+        # the field's lattice vertices nearest to a measured surface point (back-projected depth)
+        self.measured_surface = torch.zeros(field.lattice.resolution**3, dtype=torch.bool, device=field.device)
+        self.skip: SkipGrid | None = None  # empty-space skipping of the current update (cfg.skip_below)
 
     def state_dict(self) -> dict:
         """What training needs to continue exactly (the field's weights and the rays are kept elsewhere):
@@ -174,6 +177,8 @@ class Trainer:
     def add_measurement(self, m: Measurement) -> None:
         """Store a new measurement; the next ``update`` trains on it."""
         self.buffer.add(m)
+        points = torch.as_tensor(back_project(m)[0], dtype=torch.float32, device=self.field.device)
+        self.measured_surface[self.field.lattice.nearest_index(points)] = True
 
     def _batch(self, index: np.ndarray) -> dict[str, torch.Tensor]:
         rays = self.buffer.rays(index)
@@ -182,7 +187,8 @@ class Trainer:
     def step(self, batch: dict[str, torch.Tensor]) -> Losses:
         """One gradient step on a batch of rays."""
         out = render_rays(
-            self.field, batch["origins"], batch["dirs"], self.render_cfg, generator=self.generator, depth=batch["depth"]
+            self.field, batch["origins"], batch["dirs"], self.render_cfg, generator=self.generator, depth=batch["depth"],
+            skip=self.skip,
         )
         total, l_rgb, l_depth, l_sem = loss_terms(out, batch, self.cfg)
         if not torch.isfinite(total):
@@ -200,10 +206,17 @@ class Trainer:
         inverse use count once per update, for all its iterations together (as the reference code
         draws one active set per view), then dealt out in batches; ``replay=False`` switches replay
         off, to show forgetting.
+
+        Empty-space skipping (``cfg.skip_below``): at the start of the update, the lattice cells where the
+        field's occupancy is below the threshold and no measured surface lies are marked empty, and
+        samples there are not evaluated during the update (they would only be pushed further towards 0;
+        a surface can still grow wherever a measurement saw one).
         """
         if len(self.buffer) == 0:
             raise ValueError("the measurement set is empty: add a measurement before training")
         iterations = self.cfg.iterations_per_view if iterations is None else iterations
+        if self.cfg.skip_below is not None:
+            self.skip = build_skip_grid(self.field, threshold=self.cfg.skip_below, also_keep=self.measured_surface)
         newest = self.rng.permutation(self.buffer.newest_indices())
         replay = self.buffer.replay_indices(iterations * self.cfg.rays_replay, self.rng) if self.replay else np.zeros(0, int)
         replay = self.rng.permutation(replay)

@@ -171,7 +171,7 @@ def test_occupied_share_below_counts_the_phantom_under_the_ground():
     implicit = ImplicitMap.from_preset(preset)
     with torch.no_grad():  # features that saturate the occupancy below z = -0.5
         points = implicit.field.lattice.points()
-        implicit.field.grid[points[:, 2] < -0.5, : preset.field.occ_channels] = 1e3
+        implicit.field.grid_occ[points[:, 2] < -0.5] = 1e3
         implicit.field.occ_mlp[-1].bias.fill_(0.0)
     lattice_z = implicit.field.lattice.axis()
     below = lattice_z[lattice_z < -0.05]

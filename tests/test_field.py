@@ -63,7 +63,7 @@ def test_field_outputs_have_the_paper_ranges(preset):
 def test_grid_views_name_the_right_channels():
     field = SemanticField(FieldConfig(grid_resolution=4), seed=0)
     with torch.no_grad():
-        field.grid[(1 * 4 + 2) * 4 + 3, 3] = 7.0  # vertex x=3, y=2, z=1, first rgb channel
+        field.grid_app[(1 * 4 + 2) * 4 + 3, 0] = 7.0  # vertex x=3, y=2, z=1, first rgb channel
     assert field.V_rgb[0, 1, 2, 3] == 7.0
     assert field.V_occ.abs().sum() == 0 and field.V_sem.abs().sum() == 0
 

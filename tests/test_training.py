@@ -92,7 +92,7 @@ def test_saturated_occupancy_gives_finite_loss_and_gradients(sim):
     field = SemanticField(SMALL_FIELD, seed=0)
     with torch.no_grad():
         field.occ_mlp[-1].bias.fill_(50.0)  # o == 1 everywhere: log(0) and 0 * inf lurk
-        field.grid[:, -7:] = torch.tensor([-100.0, 100, -100, -100, -100, -100, -100])
+        field.grid_app[:, -7:] = torch.tensor([-100.0, 100, -100, -100, -100, -100, -100])
     trainer = Trainer(field, SMALL_TRAIN, SMALL_RENDER, seed=0)
     trainer.add_measurement(measurement(sim, 0.8, 0.3))
     history = trainer.update(3)

@@ -77,7 +77,9 @@ def test_target_mask_dilation():
 def test_snapshot_scores_agree_with_the_exact_field():
     field = SemanticField(FieldConfig(grid_resolution=16, rgb_hidden=(16,)), seed=0)
     with torch.no_grad():
-        field.grid.normal_(0, 2.0, generator=torch.Generator().manual_seed(0))
+        generator = torch.Generator().manual_seed(0)
+        for grid in (field.grid_occ, field.grid_app):
+            grid.normal_(0, 2.0, generator=generator)
     k = Intrinsics.from_fov(12, 12)
     views = fibonacci_hemisphere(12)
     exact = score_views(field, views, (1, 2), k, 48)

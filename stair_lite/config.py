@@ -64,9 +64,11 @@ class TrainConfig:
     iterations_per_view: int = 200
     lr_grid: float = 0.05
     lr_mlp: float = 0.02
-    # empty-space skipping in training: samples in lattice cells where the field's occupancy was below this at
-    # the start of the update, and no measured surface lies, are not evaluated (None: evaluate every sample)
+    # empty-space skipping in training: samples in lattice cells where the field's occupancy was below this when
+    # the skip grid was last built (every ``skip_refresh`` iterations of an update, and at its start), and where
+    # no measured surface lies, are not evaluated (None: evaluate every sample)
     skip_below: float | None = 1e-3
+    skip_refresh: int = 20
 
 
 @dataclass(frozen=True)

@@ -41,26 +41,33 @@ def psnr(prediction: np.ndarray, target: np.ndarray) -> float:
 
 
 @torch.no_grad()
-def occupancy_volume(field, resolution: int, targets=None, z_min: float | None = None) -> tuple[np.ndarray, Lattice]:
+def occupancy_volume(field, resolution: int, targets=None, z_min: float | None = None,
+                     skip=None) -> tuple[np.ndarray, Lattice]:
     """Occupancy on a ``Lattice`` of ``resolution``^3 vertices over the cube, as an (R, R, R) volume indexed
     [x, y, z], and the lattice.
 
     Points whose semantic argmax is background (or, with ``targets``, not a target) count as empty:
-    the paper's target-only mesh. ``z_min`` skips the layers below it (they stay empty).
+    the paper's target-only mesh. ``z_min`` skips the layers below it (they stay empty). ``skip`` (a
+    ``SkipGrid`` of the field, built with the same ``targets``): points in cells it leaves out count as
+    empty without evaluating the field (its occupancy there is below the skip grid's threshold).
     """
     lattice = Lattice(resolution, field.lattice.bound)
     first = lattice.first_layer(z_min) if z_min is not None else 0
-    q = field.query(lattice.points(field.device, z_min=z_min))
+    points = lattice.points(field.device, z_min=z_min)
+    evaluate = skip.lookup(points) if skip is not None else torch.ones(len(points), dtype=torch.bool, device=field.device)
+    q = field.query(points[evaluate])
     label = q["sem"].argmax(dim=1)
     keep = label != BACKGROUND if targets is None else torch.isin(label, torch.as_tensor(targets, device=label.device))
+    occ = torch.zeros(len(points), device=field.device).masked_scatter(evaluate, q["occ"] * keep)
     volume = np.zeros((resolution,) * 3, np.float32)  # indexed [z, y, x], the lattice's flat order
-    volume[first:] = (q["occ"] * keep).view(resolution - first, resolution, resolution).cpu().numpy()
+    volume[first:] = occ.view(resolution - first, resolution, resolution).cpu().numpy()
     return xyz(volume), lattice
 
 
-def extract_mesh(field, resolution: int = 128, targets=None, threshold: float = 0.5) -> trimesh.Trimesh | None:
-    """Marching cubes of the (target-only) occupancy at ``threshold`` (paper: 0.5); None when nothing is occupied."""
-    volume, lattice = occupancy_volume(field, resolution, targets, z_min=GROUND_CUT_Z)
+def extract_mesh(field, resolution: int = 128, targets=None, threshold: float = 0.5, skip=None) -> trimesh.Trimesh | None:
+    """Marching cubes of the (target-only) occupancy at ``threshold`` (paper: 0.5); None when nothing is occupied.
+    ``skip``: see ``occupancy_volume``."""
+    volume, lattice = occupancy_volume(field, resolution, targets, z_min=GROUND_CUT_Z, skip=skip)
     if volume.max() <= threshold or volume.min() >= threshold:
         return None
     padded = np.pad(volume, 1)  # closed surfaces at the cube's faces

@@ -207,16 +207,14 @@ class Trainer:
         draws one active set per view), then dealt out in batches; ``replay=False`` switches replay
         off, to show forgetting.
 
-        Empty-space skipping (``cfg.skip_below``): at the start of the update, the lattice cells where the
-        field's occupancy is below the threshold and no measured surface lies are marked empty, and
-        samples there are not evaluated during the update (they would only be pushed further towards 0;
-        a surface can still grow wherever a measurement saw one).
+        Empty-space skipping (``cfg.skip_below``): at the start of the update and every ``cfg.skip_refresh``
+        iterations, the lattice cells where the field's occupancy is below the threshold and no measured
+        surface lies are marked empty, and samples there are not evaluated until the next refresh (they
+        would only be pushed further towards 0; a surface can still grow wherever a measurement saw one).
         """
         if len(self.buffer) == 0:
             raise ValueError("the measurement set is empty: add a measurement before training")
         iterations = self.cfg.iterations_per_view if iterations is None else iterations
-        if self.cfg.skip_below is not None:
-            self.skip = build_skip_grid(self.field, threshold=self.cfg.skip_below, also_keep=self.measured_surface)
         newest = self.rng.permutation(self.buffer.newest_indices())
         replay = self.buffer.replay_indices(iterations * self.cfg.rays_replay, self.rng) if self.replay else np.zeros(0, int)
         replay = self.rng.permutation(replay)
@@ -228,5 +226,7 @@ class Trainer:
                 start = (i * self.cfg.rays_replay) % len(replay)
                 index = np.concatenate([index, np.take(replay, np.arange(start, start + self.cfg.rays_replay), mode="wrap")])
             np.add.at(self.buffer.use_counts, index, 1)
+            if self.cfg.skip_below is not None and i % self.cfg.skip_refresh == 0:
+                self.skip = build_skip_grid(self.field, threshold=self.cfg.skip_below, also_keep=self.measured_surface)
             history.append(self.step(self._batch(index)))
         return history

@@ -97,6 +97,9 @@ def test_skipping_empty_space_matches_the_exact_render():
     assert any(not np.allclose(a, b) for a, b in zip(*both))  # the cut removes something in these views
     result = evaluator.evaluate(implicit)
     assert result["psnr"] > 12 and 0 <= result["f1"] <= 1 and result["mesh"] is not None
+    # the target mesh, evaluated only where the skip grid keeps cells, is the mesh of the whole lattice
+    exact_mesh = extract_mesh(field, preset.eval.mesh_resolution, targets=scene.targets)
+    np.testing.assert_array_equal(implicit.target_mesh(scene.targets).vertices, exact_mesh.vertices)
 
 
 def small_eval_preset():

@@ -69,6 +69,9 @@ class TrainConfig:
     # no measured surface lies, are not evaluated (None: evaluate every sample)
     skip_below: float | None = 1e-3
     skip_refresh: int = 20
+    # rays rendered per forward/backward pass; a larger batch accumulates its gradient over several passes
+    # (the same gradient, less memory: the paper preset's 8000 rays x 200 samples would need 3 GB at once)
+    rays_per_pass: int = 4000
 
 
 @dataclass(frozen=True)

@@ -142,6 +142,23 @@ def loss_terms(out: dict[str, torch.Tensor], batch: dict[str, torch.Tensor], cfg
     return total, l_rgb, l_depth, l_sem
 
 
+def accumulate_gradient(field, batch: dict[str, torch.Tensor], cfg: TrainConfig, render_cfg: RenderConfig,
+                        generator: torch.Generator | None = None, skip=None) -> torch.Tensor:
+    """Add the gradient of the batch-mean loss (Eq. 9) to the field's parameters, rendering the batch in passes
+    of at most ``cfg.rays_per_pass`` rays (each pass adds its share), and return the four loss terms (total,
+    rgb, depth, semantic) as batch means."""
+    n = len(batch["depth"])
+    terms = torch.zeros(4)
+    for start in range(0, n, cfg.rays_per_pass):
+        part = {k: v[start : start + cfg.rays_per_pass] for k, v in batch.items()}
+        out = render_rays(field, part["origins"], part["dirs"], render_cfg, generator=generator, depth=part["depth"], skip=skip)
+        share = len(part["depth"]) / n
+        part_terms = loss_terms(out, part, cfg)
+        (part_terms[0] * share).backward()
+        terms += torch.stack([t.detach().cpu() for t in part_terms]) * share
+    return terms
+
+
 class Trainer:
     """Trains a SemanticField incrementally over a growing RayBuffer, with one persistent Adam optimiser."""
 
@@ -186,18 +203,13 @@ class Trainer:
 
     def step(self, batch: dict[str, torch.Tensor]) -> Losses:
         """One gradient step on a batch of rays."""
-        out = render_rays(
-            self.field, batch["origins"], batch["dirs"], self.render_cfg, generator=self.generator, depth=batch["depth"],
-            skip=self.skip,
-        )
-        total, l_rgb, l_depth, l_sem = loss_terms(out, batch, self.cfg)
-        if not torch.isfinite(total):
-            raise FloatingPointError(f"non-finite training loss {total.item()} at iteration {self.iterations}")
         self.optimizer.zero_grad(set_to_none=True)
-        total.backward()
+        terms = accumulate_gradient(self.field, batch, self.cfg, self.render_cfg, self.generator, self.skip)
+        if not torch.isfinite(terms[0]):
+            raise FloatingPointError(f"non-finite training loss {terms[0].item()} at iteration {self.iterations}")
         self.optimizer.step()
         self.iterations += 1
-        return Losses(total.item(), l_rgb.item(), l_depth.item(), l_sem.item())
+        return Losses(*(float(t) for t in terms))
 
     def update(self, iterations: int | None = None) -> list[Losses]:
         """Train ``iterations`` steps (default: the config's per-view count) after a new measurement.

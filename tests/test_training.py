@@ -128,3 +128,50 @@ def test_bad_measurements_are_rejected_before_training(sim):
         Measurement(m.rgb[:10], m.depth, m.labels, m.pose, m.intrinsics)
     with pytest.raises(ValueError, match="class range"):
         Measurement(m.rgb, m.depth, m.labels + 7, m.pose, m.intrinsics)
+
+
+def test_a_batch_in_several_passes_has_the_gradient_of_one_pass(sim):
+    """rays_per_pass changes memory, not the gradient: the passes' shares add up to the batch's gradient
+    (samples without jitter, so that both see the same samples)."""
+    from stair_lite.training import accumulate_gradient
+
+    buffer = RayBuffer()
+    buffer.add(measurement(sim, 0.6, 1.0))
+    rays = buffer.rays(np.random.default_rng(0).choice(len(buffer), 500, replace=False))
+    batch = {k: torch.as_tensor(v) for k, v in rays.items()}
+    grads, terms = [], []
+    for per_pass in (500, 64):  # one pass, or eight
+        field = SemanticField(SMALL_FIELD, seed=0)
+        with torch.no_grad():  # a field with some structure, so that every term has a gradient
+            generator = torch.Generator().manual_seed(1)
+            for grid in (field.grid_occ, field.grid_app):
+                grid.normal_(0, 1.0, generator=generator)
+            field.occ_mlp[-1].bias.fill_(3.0)  # occupancies around 0.05: colour and classes matter too
+        terms.append(accumulate_gradient(field, batch, TrainConfig(rays_per_pass=per_pass), SMALL_RENDER))
+        grads.append([torch.zeros_like(p) if p.grad is None else p.grad.clone() for p in field.parameters()])
+    torch.testing.assert_close(terms[0], terms[1], rtol=1e-5, atol=1e-6)
+    for a, b in zip(*grads):
+        torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-6)
+    assert all(g.abs().sum() > 0 for g in grads[0])
+
+
+def test_training_skips_only_space_the_field_and_the_measurements_call_empty(sim):
+    """The training skip grid keeps every cell where a measurement saw a surface, even where the field
+    believes space is empty, and it leaves out cells where the field is empty and nothing was measured."""
+    field = SemanticField(SMALL_FIELD, seed=0)
+    trainer = Trainer(field, SMALL_TRAIN, SMALL_RENDER, seed=0)
+    with torch.no_grad():
+        field.occ_mlp[-1].bias.fill_(-30.0)  # o is about 0 everywhere: the field calls all space empty
+    m = measurement(sim, 1.0, 0.0)
+    trainer.add_measurement(m)
+    trainer.update(1)
+    from stair_lite.measurement import back_project
+
+    surface = torch.as_tensor(back_project(m)[0], dtype=torch.float32)
+    assert trainer.skip.lookup(surface).all()  # every measured surface point is in a kept cell
+    assert trainer.skip.keep.float().mean() < 0.2  # most of the empty cube is skipped
+    off = TrainConfig(**{**SMALL_TRAIN.__dict__, "skip_below": None})
+    unskipped = Trainer(SemanticField(SMALL_FIELD, seed=0), off, SMALL_RENDER, seed=0)
+    unskipped.add_measurement(m)
+    unskipped.update(1)
+    assert unskipped.skip is None

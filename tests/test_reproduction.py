@@ -1,4 +1,6 @@
-"""The stored sweep results are reproducible: re-running stored cells gives their stored records.
+"""Stored missions are reproducible: re-running stored cells gives their stored records. The cells are those of
+``data/results/reference_lite`` (scene1, seed 0), run with the current sources; the sweep folders beside it were
+made with earlier versions (their ``sweep.json`` holds the sources' hash).
 
 Sweep cells run with one torch thread per worker, and float sums depend on the thread count, so these
 tests pin one thread. On the machine that ran a sweep the records come out identical; on another CPU
@@ -15,7 +17,7 @@ from stair_lite.experiments import REPRODUCTION_TOLERANCE, RESULTS_DIR, Cell, mi
 from stair_lite.mission import METRICS_FILE, Mission
 from stair_lite.planners import far_enough, make_planner
 
-STORED = RESULTS_DIR / "sweep_lite"
+STORED = RESULTS_DIR / "reference_lite"
 TOL = REPRODUCTION_TOLERANCE
 
 

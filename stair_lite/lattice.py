@@ -72,6 +72,15 @@ class Lattice:
         # the flat index as one float product: exact, since every partial sum is an integer below 2^24
         return (ijk @ torch.tensor([1.0, r, r * r], dtype=ijk.dtype, device=ijk.device)).long()
 
+    def nearest_index_on_rays(self, origins: torch.Tensor, dirs: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        """``nearest_index`` of the samples origins + t dirs (R, S) of rays (R, 3), computed in vertex units
+        from the start (one multiply-add per coordinate and sample; it may round a sample lying exactly halfway
+        between two vertices to the other one)."""
+        r, h = self.resolution, 0.5 * (self.resolution - 1)
+        start, step = (origins / self.bound + 1.0) * h, dirs * (h / self.bound)
+        ijk = torch.addcmul(start[:, None, :], t[..., None], step[:, None, :]).round_().clamp_(0, r - 1)
+        return (ijk @ torch.tensor([1.0, r, r * r], dtype=ijk.dtype, device=ijk.device)).long()
+
     def nearest_layer(self, z: torch.Tensor) -> torch.Tensor:
         """Index of the z-layer nearest to each height z (the same rounding as ``nearest_index``)."""
         r = self.resolution

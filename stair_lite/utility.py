@@ -72,7 +72,15 @@ class FieldSnapshot:
         if self.trilinear:
             flat = trilinear(self.table, self.lattice.resolution, self.lattice.normalise(points.reshape(-1, 3)))
             return flat.view(*points.shape[:-1], -1)
-        index = self.lattice.nearest_index(points)
+        return self._rows(self.lattice.nearest_index(points))
+
+    def lookup_on_rays(self, origins: torch.Tensor, dirs: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        """``lookup`` at the samples origins + t dirs (R, S) of rays (R, 3): (R, S, 2 + P)."""
+        if self.trilinear:
+            return self.lookup(origins[:, None, :] + t[..., None] * dirs[:, None, :])
+        return self._rows(self.lattice.nearest_index_on_rays(origins, dirs, t))
+
+    def _rows(self, index: torch.Tensor) -> torch.Tensor:
         return self.table.index_select(0, index.reshape(-1)).view(*index.shape, -1)
 
 
@@ -103,8 +111,10 @@ def render_uncertainty(
     dirs = torch.as_tensor(np.concatenate([d for _, d in rays]), dtype=torch.float32, device=device)
     t_near, t_far, hit = ray_box_intersection(origins, dirs, bound, near)
     t = sample_along_rays(t_near, torch.where(hit, t_far, t_near + 1e-3), n_samples)
-    points = origins[:, None, :] + t[..., None] * dirs[:, None, :]
-    values = source.lookup(points) if snapshot else exact_samples(source, points)
+    if snapshot:
+        values = source.lookup_on_rays(origins, dirs, t)
+    else:
+        values = exact_samples(source, origins[:, None, :] + t[..., None] * dirs[:, None, :])
     occ, entropy, probs = values[..., 0] * hit[:, None], values[..., 1] * hit[:, None], values[..., 2:]
     if delete_background:
         empty = probs.argmax(dim=-1) == BACKGROUND

@@ -162,3 +162,19 @@ def test_stair_planner_prefers_the_uncertain_target_and_skips_visited_views():
 def test_unknown_planner_is_named():
     with pytest.raises(ValueError, match="unknown planner 'greedy'"):
         make_planner("greedy", get_preset("paper"), seed=0)
+
+
+def test_nearest_vertex_along_rays_is_the_nearest_vertex_of_each_sample():
+    """The snapshot's fused lookup (vertex units from the ray's start) names the vertex nearest_index names,
+    but for samples lying within float rounding of halfway between two vertices."""
+    from stair_lite.lattice import Lattice
+
+    lattice = Lattice(64)
+    rng = np.random.default_rng(0)
+    origins = torch.as_tensor(rng.uniform(-3, 3, (500, 3)), dtype=torch.float32)
+    dirs = torch.nn.functional.normalize(torch.as_tensor(rng.normal(size=(500, 3)), dtype=torch.float32), dim=1)
+    t = torch.as_tensor(np.sort(rng.uniform(0, 6, (500, 64)), axis=1), dtype=torch.float32)
+    fused = lattice.nearest_index_on_rays(origins, dirs, t)
+    direct = lattice.nearest_index(origins[:, None, :] + t[..., None] * dirs[:, None, :])
+    assert fused.shape == direct.shape == (500, 64)
+    assert (fused == direct).float().mean() > 0.999

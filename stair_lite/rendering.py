@@ -261,22 +261,37 @@ def render_target_views_and_cut(field, intrinsics: Intrinsics, poses: list[np.nd
                                 colour_weight_threshold: float = 1e-5) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """``render_target_views`` with ``skip`` and with ``skip.above(z_min)``, from one evaluation of the
     field per sample: the second composite zeroes the samples whose nearest lattice vertex lies below
-    ``z_min``, and colour is evaluated once where either composite's weight matters."""
+    ``z_min``, and colour is evaluated once where either composite's weight matters. Rays none of whose
+    samples lies in a kept cell are white in both without further work (``rays_through``); the others of
+    all poses are rendered together, in chunks."""
     lattice, h, w = skip.lattice, intrinsics.height, intrinsics.width
-    full, cut = [], []
-    for pose in poses:
-        origins, dirs = (torch.as_tensor(a, dtype=torch.float32, device=field.device) for a in pixel_rays(intrinsics, pose))
-        parts = ([], [])
-        for o, d in zip(torch.split(origins, cfg.chunk_rays), torch.split(dirs, cfg.chunk_rays)):
-            samples = sample_field(field, o, d, cfg, skip=skip, semantics=True)
-            occ = samples["occ"] * is_target(samples["sem_logits"], targets)
-            above = lattice.axis(occ.device)[lattice.nearest_layer(samples["points"][..., 2])] >= z_min
-            weights = [compositing_weights(o_)[0] for o_ in (occ, occ * above)]
-            active = ((weights[0] > colour_weight_threshold) | (weights[1] > colour_weight_threshold)) & (
-                occ > cfg.colour_min_occupancy)
-            rgb = sample_appearance(field, samples, active.view(-1))[0].view(*occ.shape, 3)
-            for part, wt in zip(parts, weights):
-                part.append((wt[..., None] * rgb).sum(dim=1) + (1.0 - wt.sum(dim=1))[:, None])
-        full.append(torch.cat(parts[0]).clamp(0, 1).view(h, w, 3).cpu().numpy())
-        cut.append(torch.cat(parts[1]).clamp(0, 1).view(h, w, 3).cpu().numpy())
-    return full, cut
+    rays = [pixel_rays(intrinsics, pose) for pose in poses]
+    origins = torch.as_tensor(np.concatenate([o for o, _ in rays]), dtype=torch.float32, device=field.device)
+    dirs = torch.as_tensor(np.concatenate([d for _, d in rays]), dtype=torch.float32, device=field.device)
+    live = rays_through(skip, origins, dirs, cfg)
+    images = torch.ones(2, len(origins), 3, device=field.device)  # the full and the cut composite of every ray
+    rows = live.nonzero().squeeze(1)
+    for chunk in torch.split(rows, cfg.chunk_rays) if len(rows) else ():
+        samples = sample_field(field, origins[chunk], dirs[chunk], cfg, skip=skip, semantics=True)
+        occ = samples["occ"] * is_target(samples["sem_logits"], targets)
+        above = lattice.axis(occ.device)[lattice.nearest_layer(samples["points"][..., 2])] >= z_min
+        weights = [compositing_weights(o_)[0] for o_ in (occ, occ * above)]
+        active = ((weights[0] > colour_weight_threshold) | (weights[1] > colour_weight_threshold)) & (
+            occ > cfg.colour_min_occupancy)
+        rgb = sample_appearance(field, samples, active.view(-1))[0].view(*occ.shape, 3)
+        for image, wt in zip(images, weights):
+            image[chunk] = (wt[..., None] * rgb).sum(dim=1) + (1.0 - wt.sum(dim=1))[:, None]
+    full, cut = (image.clamp(0, 1).view(len(poses), h, w, 3).cpu().numpy() for image in images)
+    return list(full), list(cut)
+
+
+def rays_through(skip: SkipGrid, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderConfig,
+                 n_samples: int | None = None) -> torch.Tensor:
+    """Which rays (R,) have at least one of their (unjittered) render samples in a cell ``skip`` keeps: the
+    others composite to the background without evaluating the field."""
+    live = []
+    for o, d in zip(torch.split(origins, cfg.chunk_rays), torch.split(dirs, cfg.chunk_rays)):
+        t_near, t_far, hit = ray_box_intersection(o, d, skip.lattice.bound, cfg.near)
+        t = sample_along_rays(t_near, torch.where(hit, t_far, t_near + 1e-3), n_samples or cfg.n_samples)
+        live.append(hit & skip.lookup(o[:, None, :] + t[..., None] * d[:, None, :]).any(dim=1))
+    return torch.cat(live)

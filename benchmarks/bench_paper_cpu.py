@@ -60,6 +60,7 @@ def main():
     print(f"paper preset, {label}, field trained on 3 views: median {statistics.median(times):.2f} s over "
           f"{args.repeats} (min {min(times):.2f}, max {max(times):.2f}); the skip grid keeps "
           f"{trainer.skip.keep.float().mean():.0%} of the cells")
+    peak_after_training = peak_gb()
     p = preset.plan
     k = Intrinsics.from_fov().scaled(p.candidate_scale)
     start = time.perf_counter()
@@ -83,7 +84,12 @@ def main():
     if steps:
         print(f"one planning step ({len(decision.candidates)} candidates): median {statistics.median(steps):.1f} s "
               f"over {args.planning_steps}")
-    print(f"peak resident memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2:.2f} GB")
+    print(f"peak resident memory: {peak_gb():.2f} GB (after training: {peak_after_training:.2f} GB)")
+
+
+def peak_gb() -> float:
+    """The process's peak resident memory so far."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
 
 
 if __name__ == "__main__":

@@ -68,10 +68,11 @@ class TrainConfig:
     # the skip grid was last built (every ``skip_refresh`` iterations of an update, and at its start), and where
     # no measured surface lies, are not evaluated (None: evaluate every sample)
     skip_below: float | None = 1e-3
-    skip_refresh: int = 20
+    skip_refresh: int = 50  # (lite: 20, for its 80 iterations per view)
     # rays rendered per forward/backward pass; a larger batch accumulates its gradient over several passes
-    # (the same gradient, less memory: the paper preset's 8000 rays x 200 samples would need 3 GB at once)
-    rays_per_pass: int = 4000
+    # (the same gradient, less memory: the paper preset's 8000 rays x 200 samples in 5 passes peak at 1.8 GB,
+    # in 2 passes at 2.8 GB; benchmarks/bench_paper_cpu.py)
+    rays_per_pass: int = 1600
 
 
 @dataclass(frozen=True)
@@ -150,7 +151,7 @@ LITE = Preset(
     name="lite",
     field=FieldConfig(grid_resolution=64, rgb_hidden=(32, 32)),
     render=RenderConfig(n_samples=48, n_surface_samples=16, chunk_rays=4096, colour_min_occupancy=0.0),
-    train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=80),
+    train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=80, skip_refresh=20),
     eval=EvalConfig(n_test_views=20, image_scale=0.25, mesh_resolution=128, mesh_points=100_000),
     plan=PlanConfig(candidate_scale=0.1, candidate_samples=64),
     explicit=ExplicitConfig(resolution=64),

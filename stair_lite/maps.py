@@ -17,7 +17,7 @@ from .evaluation import extract_mesh
 from .field import SemanticField
 from .geometry import Intrinsics
 from .measurement import Measurement
-from .rendering import build_skip_grid, render_target_views_and_cut
+from .rendering import SkipGrid, build_skip_grid, render_target_views_and_cut
 from .training import Losses, Trainer
 
 IMPLICIT, EXPLICIT = "implicit", "explicit"
@@ -77,6 +77,7 @@ class ImplicitMap(ReconstructionMap):
     def __init__(self, trainer: Trainer, mesh_resolution: int):
         self.trainer = trainer
         self.mesh_resolution = mesh_resolution
+        self._target_skip = None  # (key, SkipGrid): built once per state of the field (its training iteration)
 
     @classmethod
     def from_preset(cls, preset: Preset, seed: int = 0, device="cpu") -> "ImplicitMap":
@@ -93,16 +94,24 @@ class ImplicitMap(ReconstructionMap):
     def update(self) -> list[Losses]:
         return self.trainer.update()
 
+    def target_skip_grid(self, targets) -> SkipGrid:
+        """The lattice cells that may hold a target (``build_skip_grid``), built once per training iteration of
+        the field (a field changed by hand needs ``build_skip_grid`` itself)."""
+        key = (tuple(targets), self.trainer.iterations)
+        if self._target_skip is None or self._target_skip[0] != key:
+            self._target_skip = (key, build_skip_grid(self.field, targets))
+        return self._target_skip[1]
+
     def target_only_renders(self, intrinsics, poses, targets, z_min):
-        """Both renders skip the lattice cells that hold no target (``build_skip_grid``); the second also
+        """Both renders skip the lattice cells that hold no target (``target_skip_grid``); the second also
         the cells below ``z_min``. Both come from one evaluation of the field per sample."""
-        skip = build_skip_grid(self.field, targets)
+        skip = self.target_skip_grid(targets)
         return render_target_views_and_cut(self.field, intrinsics, poses, self.trainer.render_cfg, targets, skip, z_min)
 
     def target_mesh(self, targets):
         """Marching cubes of the target-masked occupancy; the field is evaluated only in the lattice cells that
-        may hold a target (``build_skip_grid``, threshold 1e-3, far below the 0.5 level)."""
-        return extract_mesh(self.field, self.mesh_resolution, targets=targets, skip=build_skip_grid(self.field, targets))
+        may hold a target (``target_skip_grid``, threshold 1e-3, far below the 0.5 level)."""
+        return extract_mesh(self.field, self.mesh_resolution, targets=targets, skip=self.target_skip_grid(targets))
 
     def occupied_share_below(self, z_max):
         points = self.field.lattice.points(self.field.device)
@@ -117,5 +126,6 @@ class ImplicitMap(ReconstructionMap):
         return {"field": self.field.state_dict(), "trainer": self.trainer.state_dict()}
 
     def load_state_dict(self, state: dict) -> None:
+        self._target_skip = None
         self.field.load_state_dict(state["field"])
         self.trainer.load_state_dict(state["trainer"])

@@ -152,7 +152,7 @@ class Scores:
 
 def score_views(
     source, views: np.ndarray, targets: tuple[int, ...], intrinsics: Intrinsics, n_samples: int,
-    options: UtilityOptions = UtilityOptions(), chunk_samples: int = 2**22,
+    options: UtilityOptions = UtilityOptions(), chunk_samples: int = 2**21,
 ) -> Scores:
     """Eqs. 12-15 for every view (elevation, azimuth) of ``views``, rendered in chunks of whole views of
     about ``chunk_samples`` samples (the memory of one chunk; the scores do not depend on it)."""

@@ -81,9 +81,6 @@ class Located:
     weights: torch.Tensor  # (N, 8) trilinear weights
     pe: torch.Tensor  # (N, 21) positional encoding
 
-    def __len__(self) -> int:
-        return len(self.index)
-
     def subset(self, rows: torch.Tensor) -> "Located":
         """The same for the points selected by ``rows`` (a boolean mask or indices)."""
         return Located(self.index[rows], self.weights[rows], self.pe[rows])

@@ -67,18 +67,21 @@ class Lattice:
 
     def nearest_index(self, points: torch.Tensor) -> torch.Tensor:
         """Flat index of the vertex nearest to each point (..., 3); points outside snap to the boundary."""
-        r = self.resolution
-        ijk = self.vertex_units(points).round_().clamp_(0, r - 1)
-        # the flat index as one float product: exact, since every partial sum is an integer below 2^24
-        return (ijk @ torch.tensor([1.0, r, r * r], dtype=ijk.dtype, device=ijk.device)).long()
+        return self._flat_nearest(self.vertex_units(points))
 
     def nearest_index_on_rays(self, origins: torch.Tensor, dirs: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
         """``nearest_index`` of the samples origins + t dirs (R, S) of rays (R, 3), computed in vertex units
         from the start (one multiply-add per coordinate and sample; it may round a sample lying exactly halfway
         between two vertices to the other one)."""
-        r, h = self.resolution, 0.5 * (self.resolution - 1)
+        h = 0.5 * (self.resolution - 1)
         start, step = (origins / self.bound + 1.0) * h, dirs * (h / self.bound)
-        ijk = torch.addcmul(start[:, None, :], t[..., None], step[:, None, :]).round_().clamp_(0, r - 1)
+        return self._flat_nearest(torch.addcmul(start[:, None, :], t[..., None], step[:, None, :]))
+
+    def _flat_nearest(self, units: torch.Tensor) -> torch.Tensor:
+        """Flat index of the vertex nearest to points in vertex units (..., 3) (rounded in place)."""
+        r = self.resolution
+        ijk = units.round_().clamp_(0, r - 1)
+        # the flat index as one float product: exact, since every partial sum is an integer below 2^24
         return (ijk @ torch.tensor([1.0, r, r * r], dtype=ijk.dtype, device=ijk.device)).long()
 
     def nearest_layer(self, z: torch.Tensor) -> torch.Tensor:

@@ -119,7 +119,10 @@ class SemanticField(nn.Module):
         pe_dim = 3 * (1 + 2 * cfg.pe_frequencies)
         generator_state = torch.random.get_rng_state()
         torch.manual_seed(seed)  # MLP initialisation is seeded, and the global state is restored after
-        self.occ_mlp = mlp(cfg.occ_channels + pe_dim, cfg.occ_hidden, 1)
+        self.occ_mlp = mlp(cfg.occ_channels + pe_dim - 3, cfg.occ_hidden, 1)
+        if not cfg.occ_hidden:  # the reference code's linear head: every weight 0.1, bias 0, so the map starts empty
+            nn.init.constant_(self.occ_mlp[0].weight, 0.1)
+            nn.init.zeros_(self.occ_mlp[0].bias)
         self.rgb_mlp = mlp(cfg.rgb_channels + pe_dim, cfg.rgb_hidden, 3)
         torch.random.set_rng_state(generator_state)
 
@@ -148,9 +151,12 @@ class SemanticField(nn.Module):
         return self.grid_occ.device
 
     def param_groups(self, cfg: TrainConfig) -> list[dict]:
-        """The optimiser's parameter groups: the grids at ``lr_grid``, the MLPs at ``lr_mlp``."""
-        mlps = list(self.occ_mlp.parameters()) + list(self.rgb_mlp.parameters())
-        return [{"params": [self.grid_occ, self.grid_app], "lr": cfg.lr_grid}, {"params": mlps, "lr": cfg.lr_mlp}]
+        """The optimiser's parameter groups: the grids at ``lr_grid``, the colour MLP at ``lr_mlp``, the occupancy
+        head at ``lr_occupancy_head`` (``lr_mlp`` when None)."""
+        occ_lr = cfg.lr_mlp if cfg.lr_occupancy_head is None else cfg.lr_occupancy_head
+        return [{"params": [self.grid_occ, self.grid_app], "lr": cfg.lr_grid},
+                {"params": list(self.rgb_mlp.parameters()), "lr": cfg.lr_mlp},
+                {"params": list(self.occ_mlp.parameters()), "lr": occ_lr}]
 
     def locate(self, x: torch.Tensor) -> Located:
         """Corner rows, trilinear weights and gamma(x) of world points x (N, 3)."""
@@ -173,8 +179,11 @@ class SemanticField(nn.Module):
         return located.read(self.grid_occ), f_rgb, f_sem, located.pe
 
     def occupancy_from(self, f_occ: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:
-        """o = 1 - exp(-softplus(MLP_occ(f_occ, gamma) + shift)), a probability in [0, 1)."""
-        logit = self.occ_mlp(torch.cat([f_occ, pe], dim=1)).squeeze(1) + self.cfg.occupancy_shift
+        """o = 1 - exp(-softplus(MLP_occ(f_occ, gamma) + shift)), a probability in [0, 1).
+
+        The head reads gamma without the raw x (``pe[:, 3:]``, the sin/cos terms), as the reference code: a head
+        that reads x extrapolates occupancy into volume no ray has reached (README, "No phantom")."""
+        logit = self.occ_mlp(torch.cat([f_occ, pe[:, 3:]], dim=1)).squeeze(1) + self.cfg.occupancy_shift
         return -torch.expm1(-F.softplus(logit))
 
     def colour_from(self, f_rgb: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:

@@ -122,7 +122,11 @@ def sample_field(field, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderCo
     With ``semantics``, also the class logits (R, S, P) of the evaluated samples (zero elsewhere) and their
     colour features ``f_rgb``, from one lookup of the appearance grid."""
     t_near, t_far, hit = ray_box_intersection(origins, dirs, field.lattice.bound, cfg.near)
-    t_far = torch.where(hit, t_far, t_near + 1e-3)
+    if depth is not None and cfg.behind_surface is not None:
+        # a measured depth tells what lies in front of the surface and nothing of what lies behind it: a training
+        # ray that hit something ends just behind its surface, so it teaches nothing about the volume beyond
+        t_far = torch.where(depth > 0, torch.minimum(t_far, depth + cfg.behind_surface), t_far)
+    t_far = torch.where(hit & (t_far > t_near), t_far, t_near + 1e-3)
     t = sample_along_rays(
         t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
         cfg.surface_band,

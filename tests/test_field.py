@@ -56,7 +56,7 @@ def test_field_outputs_have_the_paper_ranges(preset):
     assert field.V_occ.shape == (cfg.occ_channels,) + (cfg.grid_resolution,) * 3
     assert field.V_rgb.shape[0] == cfg.rgb_channels and field.V_sem.shape[0] == cfg.sem_channels
     if preset == "paper":
-        assert cfg.grid_resolution == 128 and cfg.rgb_hidden == (128, 128) and cfg.occ_hidden == (32, 32)
+        assert cfg.grid_resolution == 128 and cfg.rgb_hidden == (128, 128) and cfg.occ_hidden == ()  # README: the head
         assert (cfg.occ_channels, cfg.rgb_channels, cfg.sem_channels) == (3, 6, 7)
 
 
@@ -73,7 +73,7 @@ def test_field_initialisation_is_seeded():
     for pa, pb in zip(a.parameters(), b.parameters()):
         torch.testing.assert_close(pa, pb)
     c = SemanticField(FieldConfig(grid_resolution=8), seed=4)
-    assert not torch.equal(a.occ_mlp[0].weight, c.occ_mlp[0].weight)
+    assert not torch.equal(a.rgb_mlp[0].weight, c.rgb_mlp[0].weight)  # (the linear occupancy head starts at 0.1)
 
 
 def test_saturated_occupancy_stays_finite():
@@ -87,3 +87,16 @@ def test_saturated_occupancy_stays_finite():
 def test_unknown_preset_is_named():
     with pytest.raises(ValueError, match="unknown preset 'huge'"):
         get_preset("huge")
+
+
+def test_occupancy_head_reads_no_raw_position():
+    """The occupancy head reads the grid features and the sin/cos terms of gamma, not x itself (README, "No
+    phantom"); the colour head reads all of gamma."""
+    field = SemanticField(get_preset("lite").field, seed=0)
+    f_occ = torch.randn(50, 3, generator=torch.Generator().manual_seed(0))
+    pe = torch.randn(50, 21, generator=torch.Generator().manual_seed(1))
+    moved = pe.clone()
+    moved[:, :3] += 1.0
+    torch.testing.assert_close(field.occupancy_from(f_occ, pe), field.occupancy_from(f_occ, moved))
+    f_rgb = torch.randn(50, 6, generator=torch.Generator().manual_seed(2))
+    assert not torch.allclose(field.colour_from(f_rgb, pe), field.colour_from(f_rgb, moved))

@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import pytest
 import torch
 
@@ -47,3 +49,25 @@ def test_samples_are_sorted_inside_the_interval_and_seeded():
     assert near_surface >= 8  # the depth-guided samples sit around the measured depth
     fixed = sample_along_rays(t0, t1, 4)
     torch.testing.assert_close(fixed[1], torch.tensor([1.125, 1.375, 1.625, 1.875]))  # stratum centres
+
+
+def test_training_rays_end_just_behind_their_measured_surface():
+    """A measured depth says nothing of what lies behind the surface: a training ray that hit something is
+    sampled up to depth + behind_surface, a ray that hit nothing (depth 0) to the cube's far side."""
+    from stair_lite.config import FieldConfig, RenderConfig
+    from stair_lite.field import SemanticField
+    from stair_lite.rendering import sample_field
+
+    field = SemanticField(FieldConfig(grid_resolution=8), seed=0)
+    cfg = RenderConfig(n_samples=64, n_surface_samples=16, behind_surface=0.03)
+    origins = torch.tensor([[0.0, 0.0, 2.0], [0.0, 0.0, 2.0]])
+    dirs = torch.tensor([[0.0, 0.0, -1.0], [0.0, 0.0, -1.0]])
+    depth = torch.tensor([2.0, 0.0])  # the first ray hit the z = 0 plane
+    t = sample_field(field, origins, dirs, cfg, generator=torch.Generator().manual_seed(0), depth=depth)["t"]
+    assert t[0].max() <= 2.03 + 1e-6 and t[0].max() > 2.0  # ends just behind the surface, and reaches it
+    assert t[1].max() > 3.4  # a ray that hit nothing: to the cube's far side (t = 3.5)
+    t_off = sample_field(field, origins, dirs, replace(cfg, behind_surface=None), generator=torch.Generator().manual_seed(0),
+                         depth=depth)["t"]
+    assert t_off[0].max() > 3.4  # switched off: the whole ray
+    t_render = sample_field(field, origins, dirs, cfg)["t"]  # rendering (no measured depth) samples the whole ray
+    assert t_render[0].max() > 3.4

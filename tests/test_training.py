@@ -15,7 +15,7 @@ from stair_lite.training import RayBuffer, Trainer, loss_terms
 
 SMALL_FIELD = FieldConfig(grid_resolution=32, rgb_hidden=(32, 32))
 SMALL_RENDER = RenderConfig(n_samples=32, n_surface_samples=8)
-SMALL_TRAIN = TrainConfig(rays_new=256, rays_replay=256, iterations_per_view=40)
+SMALL_TRAIN = TrainConfig(rays_new=256, rays_replay=256, iterations_per_view=40, lr_occupancy_head=0.05)
 K = Intrinsics.from_fov(64, 64)
 
 
@@ -34,7 +34,7 @@ def test_training_lowers_the_loss_and_fits_the_view(sim):
     m = measurement(sim, 1.0, 0.5)
     before = render_image(field, K, m.pose, SMALL_RENDER)
     trainer.add_measurement(m)
-    history = trainer.update(80)
+    history = trainer.update(160)  # the linear occupancy head makes this coarse grid opaque in about 150
     first, last = np.mean([h.total for h in history[:10]]), np.mean([h.total for h in history[-10:]])
     assert last < 0.5 * first
     after = render_image(field, K, m.pose, SMALL_RENDER)

@@ -12,9 +12,9 @@ import numpy as np
 from stair_lite.scenes import SCENE_DIR, ObjectSpec, SceneSpec, build_scene, place_objects, save_scene_spec
 
 P = "procedural"
-# The stored sweeps in data/results ran on one colour per object; the scenes keep it until they are re-run
-# on the seeded many-coloured surfaces ("pattern", stair_lite.scenes.surface_albedo).
-ALBEDO = "uniform"
+# Every object carries seeded many-coloured surfaces (stair_lite.scenes.surface_albedo), so a view of an
+# object's unseen side teaches colour that no earlier view predicts (one colour per object: "uniform").
+ALBEDO = "pattern"
 SCENES = {
     "scene1": (("car",), "Target: car. Two cars (one real low-poly model) among furniture.", 11,
                [("car", P), ("car", "car_flyingcar"), ("chair", P), ("table", P), ("sofa", "sofa_assetcoop"), ("camera", P)]),

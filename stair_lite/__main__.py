@@ -7,6 +7,7 @@
   sweep    missions over scenes x planner variants x seeds (resumable), then the results table and plots
   report   the results table, curves and summary of a sweep folder
   claims   the paper's three claims, checked against a sweep (and an ablation) folder, as Markdown
+  headroom does a utility predict what a view will teach? realised gains of spread next views, rank correlations
 """
 from __future__ import annotations
 
@@ -249,6 +250,38 @@ def _cmd_claims(args):
     return 0
 
 
+def _cmd_headroom(args):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    import numpy as np
+
+    from .headroom import METRICS, UTILITIES, measure_headroom
+    from .plotting import plot_headroom
+
+    result = measure_headroom(args.scene, args.after, args.candidates, seed=args.seed, preset=args.preset,
+                              log=lambda line: None if args.quiet else print(line, flush=True))
+    command = (f"python -m stair_lite headroom --scene {args.scene} --after {args.after} --candidates {args.candidates} "
+               f"--seed {args.seed} --preset {args.preset} --out {args.out}")
+    stem = result.save(args.out, command)
+    axes = plot_headroom(result)
+    axes[0].figure.tight_layout()
+    axes[0].figure.savefig(stem.with_suffix(".png"), dpi=90)
+    plt.close("all")
+    print(f"{'metric':>10} {'spread of gains (min / median / max)':>38}" + "".join(f" {u + ' rho':>16}" for u in UTILITIES)
+          + "".join(f" {u + ' pick':>18}" for u in UTILITIES))
+    for m in METRICS:
+        g = result.gains(m)
+        print(f"{m:>10} {g.min():12.4f} / {np.median(g):8.4f} / {g.max():8.4f}"
+              + "".join(f" {result.correlations[u][m]:+16.2f}" if result.correlations[u][m] is not None else f" {'-':>16}"
+                        for u in UTILITIES)
+              + "".join(f" {result.gains(m, u)[0]:+9.4f} ({result.pick_percentile(u, m):4.0%})" for u in UTILITIES))
+    print(f"(pick: its gain, and the share of spread candidates it beats) wrote {stem}.csv, .json, .png")
+    return 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m stair_lite", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -305,6 +338,15 @@ def main(argv=None):
     p = sub.add_parser("report", help="results table, curves and summary of a sweep folder")
     p.add_argument("--results", default="runs/sweep")
     p.set_defaults(func=_cmd_report)
+    p = sub.add_parser("headroom", help="does a utility predict what a view will teach? (realised gains of spread views)")
+    p.add_argument("--scene", default="scene1")
+    p.add_argument("--after", type=int, default=3, help="views of a seeded STAIR mission before the candidate view")
+    p.add_argument("--candidates", type=int, default=16, help="spread candidate views (a Fibonacci set)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--preset", default="lite", choices=["lite", "paper", "smoke"])
+    p.add_argument("--out", default="runs/headroom")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(func=_cmd_headroom)
     p = sub.add_parser("claims", help="the paper's three claims checked against stored results (Markdown)")
     p.add_argument("--results", default="data/results/sweep_lite")
     p.add_argument("--ablation", default=None, help="an epsilon-ablation sweep folder (claim iii)")

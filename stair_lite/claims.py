@@ -2,7 +2,9 @@
 
 Introduced in notebook 06. Every comparison is between two variants' *per-seed* scores, a metric's
 mean over the 10 steps (the area under its curve divided by the steps; it rewards reaching a good
-reconstruction early), tested with Welch's two-sided t-test at ``ALPHA``:
+reconstruction early). The design is paired: a seed gives every planner the same field initialisation
+and the same first (top) view, so the test is a paired t-test (two-sided, at ``ALPHA``) on the per-seed
+differences over the seeds both variants ran:
 
 * claim (i): STAIR against the strongest of the implicit baselines (exploration, fixed, max_distance,
   uniform), per scene and metric;
@@ -13,7 +15,8 @@ reconstruction early), tested with Welch's two-sided t-test at ``ALPHA``:
   whether each mission ever saw the occluded chair.
 
 A verdict is "holds" (the claimed side is better, p < ALPHA), "reversed" (the other side is better,
-p < ALPHA) or "not significant".
+p < ALPHA) or "not significant". Better is higher, except for the chamfer distance. ``seeds_needed``
+gives the number of seeds a paired test needs to detect a difference of a given size.
 """
 from __future__ import annotations
 
@@ -29,7 +32,9 @@ from .simulator import Simulator
 
 ALPHA = 0.05
 IMPLICIT_BASELINES = ("exploration", "fixed", "max_distance", "uniform")
-METRICS = ("psnr", "psnr_clean", "f1")  # see stair_lite.evaluation for the two PSNRs
+METRICS = ("psnr", "psnr_clean", "f1", "f1_2cm", "f1_5cm", "chamfer")  # see stair_lite.evaluation
+LOWER_IS_BETTER = ("chamfer",)
+DIGITS = {"psnr": 2, "psnr_clean": 2, "chamfer": 4}  # decimals shown per metric (3 for the F1 scores)
 
 
 def metrics_of(rows) -> tuple[str, ...]:
@@ -37,9 +42,15 @@ def metrics_of(rows) -> tuple[str, ...]:
     return tuple(m for m in METRICS if all(r.get(m) is not None for r in rows))
 
 
-def per_seed_scores(rows: list[dict], scene: str, variant: str, metric: str, step: int | None = None) -> np.ndarray:
-    """One number per seed: the metric's mean over the mission's steps, or its value at ``step``."""
-    seeds = sorted({r["seed"] for r in rows if (r["scene"], r["variant"]) == (scene, variant)})
+def seeds_of(rows, scene: str, variant: str) -> list[int]:
+    return sorted({int(r["seed"]) for r in rows if (r["scene"], r["variant"]) == (scene, variant)})
+
+
+def per_seed_scores(rows: list[dict], scene: str, variant: str, metric: str, step: int | None = None,
+                    seeds: list[int] | None = None) -> np.ndarray:
+    """One number per seed (all of the variant's seeds, or ``seeds`` in that order): the metric's mean over
+    the mission's steps, or its value at ``step``."""
+    seeds = seeds_of(rows, scene, variant) if seeds is None else seeds
     if not seeds:
         raise ValueError(f"no results for variant {variant!r} on scene {scene!r}")
     return np.array([np.mean([r[metric] for r in rows if (r["scene"], r["variant"], r["seed"]) == (scene, variant, s)
@@ -48,7 +59,8 @@ def per_seed_scores(rows: list[dict], scene: str, variant: str, metric: str, ste
 
 @dataclass(frozen=True)
 class Comparison:
-    """Is ``claimed`` better than ``other`` on ``metric`` in ``scene``? (per-seed scores of each)"""
+    """Is ``claimed`` better than ``other`` on ``metric`` in ``scene``? Per-seed scores of each, paired: entry k
+    of both comes from the same seed."""
 
     scene: str
     metric: str
@@ -57,35 +69,65 @@ class Comparison:
     claimed_scores: np.ndarray
     other_scores: np.ndarray
 
+    def __post_init__(self):
+        if len(self.claimed_scores) != len(self.other_scores):
+            raise ValueError(f"a paired comparison needs one score per seed on both sides, got "
+                             f"{len(self.claimed_scores)} and {len(self.other_scores)}")
+
+    @property
+    def differences(self) -> np.ndarray:
+        """Per seed: claimed minus other."""
+        return self.claimed_scores - self.other_scores
+
     @property
     def difference(self) -> float:
-        return float(self.claimed_scores.mean() - self.other_scores.mean())
+        return float(self.differences.mean())
 
     @property
     def p_value(self) -> float:
-        """Welch's two-sided t-test; NaN with fewer than two seeds on a side or no spread at all."""
-        a, b = self.claimed_scores, self.other_scores
-        if min(len(a), len(b)) < 2 or (np.ptp(a) == 0 and np.ptp(b) == 0):
+        """Paired two-sided t-test; NaN with fewer than two seeds or identical differences."""
+        d = self.differences
+        if len(d) < 2 or np.ptp(d) == 0:
             return float("nan")
-        return float(stats.ttest_ind(a, b, equal_var=False).pvalue)
+        return float(stats.ttest_rel(self.claimed_scores, self.other_scores).pvalue)
 
     @property
     def verdict(self) -> str:
         if not self.p_value < ALPHA:
             return "not significant"
-        return "holds" if self.difference > 0 else "reversed"
+        return "holds" if (self.difference > 0) != (self.metric in LOWER_IS_BETTER) else "reversed"
 
     def describe(self) -> str:
-        a, b = self.claimed_scores, self.other_scores
-        digits = 3 if self.metric == "f1" else 2
-        return (f"{self.scene} {self.metric}: {self.claimed} {a.mean():.{digits}f} +- {a.std():.{digits}f} vs "
-                f"{self.other} {b.mean():.{digits}f} +- {b.std():.{digits}f} (n = {len(a)}/{len(b)}, "
-                f"p = {self.p_value:.3f}): {self.verdict}")
+        a, b, d = self.claimed_scores, self.other_scores, DIGITS.get(self.metric, 3)
+        return (f"{self.scene} {self.metric}: {self.claimed} {a.mean():.{d}f} +- {a.std():.{d}f} vs "
+                f"{self.other} {b.mean():.{d}f} +- {b.std():.{d}f} (paired over {len(a)} seeds, difference "
+                f"{self.difference:+.{d}f}, p = {self.p_value:.3f}): {self.verdict}")
 
 
 def compare(rows, scene, metric, claimed, other, step: int | None = None) -> Comparison:
-    return Comparison(scene, metric, claimed, other, per_seed_scores(rows, scene, claimed, metric, step),
-                      per_seed_scores(rows, scene, other, metric, step))
+    """The paired comparison over the seeds both variants ran."""
+    seeds = sorted(set(seeds_of(rows, scene, claimed)) & set(seeds_of(rows, scene, other)))
+    if not seeds:
+        raise ValueError(f"variants {claimed!r} and {other!r} share no seed on scene {scene!r}")
+    return Comparison(scene, metric, claimed, other, per_seed_scores(rows, scene, claimed, metric, step, seeds),
+                      per_seed_scores(rows, scene, other, metric, step, seeds))
+
+
+def seeds_needed(sd_difference: float, difference: float, alpha: float = ALPHA, power: float = 0.8,
+                 most: int = 1000) -> int:
+    """The fewest seeds with which a paired two-sided t-test at ``alpha`` detects a true mean difference of
+    ``difference`` with probability ``power``, when per-seed differences spread with ``sd_difference``
+    (the noncentral t distribution)."""
+    if not sd_difference > 0 or difference == 0:
+        raise ValueError(f"need a positive spread and a non-zero difference, got sd {sd_difference!r}, "
+                         f"difference {difference!r}")
+    effect = abs(difference) / sd_difference
+    for n in range(2, most + 1):
+        t_crit = stats.t.ppf(1 - alpha / 2, n - 1)
+        reached = stats.nct.sf(t_crit, n - 1, effect * np.sqrt(n)) + stats.nct.cdf(-t_crit, n - 1, effect * np.sqrt(n))
+        if reached >= power:
+            return n
+    raise ValueError(f"more than {most} seeds needed for a difference of {difference} at spread {sd_difference}")
 
 
 def scenes_of(rows) -> list[str]:
@@ -93,11 +135,12 @@ def scenes_of(rows) -> list[str]:
 
 
 def claim_one(rows) -> list[Comparison]:
-    """Claim (i): per scene and metric, STAIR against the implicit baseline with the best mean."""
+    """Claim (i): per scene and metric, STAIR against the implicit baseline with the best mean (lowest chamfer)."""
     out = []
     for scene in scenes_of(rows):
         for metric in metrics_of(rows):
-            strongest = max(IMPLICIT_BASELINES, key=lambda v: per_seed_scores(rows, scene, v, metric).mean())
+            sign = -1 if metric in LOWER_IS_BETTER else 1
+            strongest = max(IMPLICIT_BASELINES, key=lambda v: sign * per_seed_scores(rows, scene, v, metric).mean())
             out.append(compare(rows, scene, metric, "stair", strongest))
     return out
 
@@ -177,12 +220,12 @@ def first_sight(rows, min_pixels: int = MIN_PIXELS) -> dict[tuple[str, int], int
 
 
 def _table(comparisons: list[Comparison]) -> list[str]:
-    lines = ["| scene | metric | claimed side | other side | difference | p | verdict |", "|---|---|---|---|---|---|---|"]
+    lines = ["| scene | metric | claimed side | other side | paired difference | p | verdict |", "|---|---|---|---|---|---|---|"]
     for c in comparisons:
-        a, b, d = c.claimed_scores, c.other_scores, (3 if c.metric == "f1" else 2)
-        lines.append(f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} ± {a.std():.{d}f} (n={len(a)}) | "
-                     f"{c.other} {b.mean():.{d}f} ± {b.std():.{d}f} (n={len(b)}) | {c.difference:+.{d}f} | "
-                     f"{c.p_value:.3f} | {c.verdict} |")
+        a, b, d = c.claimed_scores, c.other_scores, DIGITS.get(c.metric, 3)
+        lines.append(f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} ± {a.std():.{d}f} | "
+                     f"{c.other} {b.mean():.{d}f} ± {b.std():.{d}f} | {c.difference:+.{d}f} ± {c.differences.std():.{d}f} "
+                     f"(n={len(a)}) | {c.p_value:.3f} | {c.verdict} |")
     return lines
 
 
@@ -193,8 +236,9 @@ def _count(comparisons: list[Comparison]) -> str:
 
 def markdown_report(rows, ablation_rows=None) -> str:
     """The claim-by-claim verdict as Markdown, computed from a sweep's rows (and the ablation's)."""
-    out = ["Scores: each seed's mean over the 10 steps; ± is the std over seeds; p from Welch's t-test; "
-           f"a verdict needs p < {ALPHA}.", "",
+    out = ["Scores: each seed's mean over the 10 steps (the area under the curve over the steps); ± is the std over "
+           "seeds; the paired difference is over the seeds both sides ran (same field initialisation and first view); "
+           f"p from the paired t-test; a verdict needs p < {ALPHA}; lower chamfer is better.", "",
            "### Claim (i): STAIR beats the implicit baselines that ignore semantics", "",
            "STAIR against the strongest baseline (highest mean) per scene and metric: " + _count(one := claim_one(rows)) + ".",
            "", *_table(one), ""]

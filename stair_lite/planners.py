@@ -142,6 +142,14 @@ class FixedPatternPlanner(Planner):
         return Decision(view=self.sequence[index], info={"pattern_index": index})
 
 
+def mean_squared_distance(candidates: np.ndarray, visited: np.ndarray) -> np.ndarray:
+    """Max View Distance's score of each candidate view: the mean squared distance [m^2] of its camera to
+    the visited cameras."""
+    c = view_to_position(candidates[:, 0], candidates[:, 1])
+    v = view_to_position(visited[:, 0], visited[:, 1])
+    return ((c[:, None, :] - v[None, :, :]) ** 2).sum(-1).mean(axis=1)
+
+
 class MaxViewDistancePlanner(Planner):
     """The random candidate whose camera has the largest mean squared distance to the visited cameras."""
 
@@ -150,9 +158,7 @@ class MaxViewDistancePlanner(Planner):
 
     def next_view(self, field, visited, targets) -> Decision:
         candidates = random_hemisphere(self.n_candidates, self.rng)
-        c = view_to_position(candidates[:, 0], candidates[:, 1])
-        v = view_to_position(visited[:, 0], visited[:, 1])
-        distance = ((c[:, None, :] - v[None, :, :]) ** 2).sum(-1).mean(axis=1)
+        distance = mean_squared_distance(candidates, visited)
         best = int(np.argmax(np.where(far_enough(candidates, visited), distance, -np.inf)))
         return Decision(view=candidates[best], candidates=candidates, chosen_index=best, info={"mean_sq_distance": float(distance[best])})
 

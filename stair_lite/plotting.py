@@ -155,3 +155,41 @@ def plot_sweep_curves(rows, metric: str = "psnr", variants=None, axes=None, ylab
     axes[0].set_ylabel(ylabel or metric)
     axes[-1].legend(fontsize=7, loc="lower right")
     return axes
+
+
+def plot_headroom(headroom, metrics=("f1", "psnr_clean"), axes=None):
+    """The headroom instrument's result (headroom.py): the realised gain of each spread candidate on the
+    hemisphere (seen from above; the planners' picks marked), then per metric the gain against STAIR's utility
+    with its rank correlation."""
+    if axes is None:
+        fig = plt.figure(figsize=(4.2 * (1 + len(metrics)), 3.8))
+        axes = [fig.add_subplot(1, 1 + len(metrics), 1, projection="polar")] + [
+            fig.add_subplot(1, 1 + len(metrics), 2 + i) for i in range(len(metrics))]
+    markers = {"stair": ("*", "tab:red"), "exploration": ("^", "tab:blue"), "max_distance": ("s", "tab:green")}
+    spread = [r for r in headroom.rows if r["kind"] == "spread"]
+
+    def polar(rows):
+        return np.radians([r["azimuth_deg"] for r in rows]), [90 - r["elevation_deg"] for r in rows]
+
+    theta, radius = polar(spread)
+    im = axes[0].scatter(theta, radius, c=[r[f"gain_{metrics[0]}"] for r in spread], cmap="viridis", s=40)
+    for kind, (marker, colour) in markers.items():
+        t, rad = polar([r for r in headroom.rows if r["kind"] == kind])
+        axes[0].scatter(t, rad, marker=marker, s=120, facecolor="none", edgecolor=colour, linewidth=1.5, label=kind)
+    axes[0].set_ylim(0, 90)
+    axes[0].set_yticklabels([])
+    axes[0].set_title(f"{headroom.scene}, after {headroom.after} views:\n{metrics[0]} gain of each next view", fontsize=9)
+    axes[0].legend(fontsize=7, loc="lower left", bbox_to_anchor=(-0.25, -0.2))
+    plt.colorbar(im, ax=axes[0], fraction=0.046, pad=0.12)
+    for ax, metric in zip(axes[1:], metrics):
+        ax.scatter([r["u_stair"] for r in spread], [r[f"gain_{metric}"] for r in spread], color="grey", s=18, label="spread")
+        for kind, (marker, colour) in markers.items():
+            (r,) = [r for r in headroom.rows if r["kind"] == kind]
+            ax.scatter(r["u_stair"], r[f"gain_{metric}"], marker=marker, s=90, color=colour, label=f"{kind}'s pick")
+        rho = headroom.correlations["stair"][metric]
+        ax.set_title(f"{metric} gain vs STAIR's utility (Spearman {'-' if rho is None else f'{rho:+.2f}'})", fontsize=9)
+        ax.set_xlabel("U (Eq. 15)")
+        ax.set_ylabel(f"realised {metric} gain")
+        ax.axhline(0, color="k", linewidth=0.5)
+    axes[1].legend(fontsize=7)
+    return axes

@@ -4,7 +4,7 @@ import pytest
 
 from dataclasses import replace
 
-from stair_lite.claims import (Comparison, claim_one, claim_three, claim_two, hidden_target_fraction, markdown_report,
+from stair_lite.claims import (Comparison, claim_one, compare, claim_three, claim_two, hidden_target_fraction, markdown_report,
                                object_pixels, per_seed_scores, tally)
 from stair_lite.geometry import TOP_VIEW, Intrinsics
 from stair_lite.scenes import build_scene, load_scene_spec, save_scene_spec
@@ -33,14 +33,50 @@ def test_per_seed_scores_are_means_over_steps():
         per_seed_scores(rows, "scene1", "ste", "psnr")
 
 
-def test_verdicts_follow_the_welch_test():
+def test_verdicts_follow_the_paired_test():
     a, b = np.array([20.0, 20.2, 19.9, 20.1]), np.array([18.0, 18.3, 17.9, 18.1])
     assert Comparison("s", "psnr", "x", "y", a, b).verdict == "holds"
     assert Comparison("s", "psnr", "y", "x", b, a).verdict == "reversed"
-    close = Comparison("s", "psnr", "x", "y", a, a + 0.01)
+    close = Comparison("s", "psnr", "x", "y", a, a + np.array([0.01, -0.02, 0.0, 0.01]))
     assert close.verdict == "not significant" and close.p_value > 0.5
-    assert np.isnan(Comparison("s", "psnr", "x", "y", a[:1], b).p_value)  # one seed: no test
-    assert Comparison("s", "psnr", "x", "y", a[:1], b).verdict == "not significant"
+    assert np.isnan(Comparison("s", "psnr", "x", "y", a[:1], b[:1]).p_value)  # one seed: no test
+    assert Comparison("s", "psnr", "x", "y", a[:1], b[:1]).verdict == "not significant"
+    with pytest.raises(ValueError, match="one score per seed on both sides"):
+        Comparison("s", "psnr", "x", "y", a, b[:3])
+
+
+def test_pairing_removes_the_seed_to_seed_spread():
+    """Seeds differ a lot (the field initialisation), but within every seed x is 0.1 better than y: the
+    paired test sees it; an unpaired (Welch) test would not (p about 0.9)."""
+    base = np.array([18.0, 22.0, 20.0, 25.0, 16.0])
+    lift = np.array([0.1, 0.12, 0.09, 0.1, 0.11])
+    c = Comparison("s", "psnr", "x", "y", base + lift, base)
+    assert c.verdict == "holds" and c.p_value < 1e-4
+    from scipy import stats
+    assert stats.ttest_ind(base + lift, base, equal_var=False).pvalue > 0.5
+
+
+def test_lower_chamfer_is_better():
+    a, b = np.array([0.020, 0.021, 0.019, 0.020]), np.array([0.030, 0.032, 0.029, 0.031])
+    assert Comparison("s", "chamfer", "x", "y", a, b).verdict == "holds"
+    assert Comparison("s", "chamfer", "y", "x", b, a).verdict == "reversed"
+
+
+def test_seeds_needed_matches_the_textbook_sample_sizes():
+    """Paired t-test, two-sided alpha 0.05, power 0.8: effect size 1 needs 10 pairs, 0.5 needs 34 (Cohen's tables)."""
+    from stair_lite.claims import seeds_needed
+    assert seeds_needed(1.0, 1.0) == 10
+    assert seeds_needed(0.04, 0.02) == 34
+    assert seeds_needed(0.04, -0.02) == 34  # the sign does not matter
+    with pytest.raises(ValueError, match="positive spread"):
+        seeds_needed(0.0, 0.1)
+
+
+def test_compare_pairs_the_shared_seeds():
+    rows = fake_rows({"stair": 20.0, "ste": 18.0}, seeds=4)
+    rows = [r for r in rows if not (r["variant"] == "ste" and r["seed"] == 3)]  # ste lacks seed 3
+    c = compare(rows, "scene1", "psnr", "stair", "ste")
+    assert len(c.claimed_scores) == len(c.other_scores) == 3
 
 
 def test_claim_one_compares_with_the_strongest_baseline():

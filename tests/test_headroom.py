@@ -1,0 +1,42 @@
+"""The headroom instrument: realised gains of candidate next views on copies of a mission's map."""
+import numpy as np
+import pytest
+
+from stair_lite.headroom import METRICS, UTILITIES, Headroom, measure_headroom
+from stair_lite.mission import Mission, MissionConfig
+
+
+@pytest.fixture(scope="module")
+def headroom():
+    return measure_headroom("scene1", after=2, n_candidates=5, seed=0, preset="smoke", log=lambda line: None)
+
+
+def test_the_stair_pick_realises_what_the_mission_measures_next(headroom):
+    """Independent check of "added to a copy of the map, trained the same way": the copy given STAIR's pick
+    ends exactly where an uninterrupted mission one view longer ends."""
+    longer = Mission(MissionConfig(scene="scene1", planner="stair", seed=0, preset="smoke", budget=3)).run()
+    (pick,) = [r for r in headroom.rows if r["kind"] == "stair"]
+    assert np.allclose([pick["elevation_deg"], pick["azimuth_deg"]], longer[-1]["view_deg"])
+    for metric in METRICS:
+        assert pick[metric] == pytest.approx(longer[-1][metric], abs=1e-9), metric
+        assert headroom.before[metric] == pytest.approx(longer[-2][metric], abs=1e-9), metric
+
+
+def test_rows_gains_and_correlations(headroom, tmp_path):
+    spread = [r for r in headroom.rows if r["kind"] == "spread"]
+    assert 2 <= len(spread) <= 5 and [r["kind"] for r in headroom.rows[len(spread):]] == list(UTILITIES)
+    for r in headroom.rows:
+        assert r["gain_psnr"] == pytest.approx(r["psnr"] - headroom.before["psnr"])
+        assert r["gain_chamfer"] == pytest.approx(headroom.before["chamfer"] - r["chamfer"])  # a gain is a reduction
+    for u in UTILITIES:
+        for m in METRICS:
+            rho = headroom.correlations[u][m]
+            assert rho is None or -1.0 <= rho <= 1.0
+    assert 0.0 <= headroom.pick_percentile("stair", "psnr") <= 1.0
+    loaded = Headroom.load(headroom.save(tmp_path))
+    assert loaded.correlations == headroom.correlations and loaded.rows == headroom.rows
+
+
+def test_bad_arguments_are_named():
+    with pytest.raises(ValueError, match="at least 1 view before and 2 candidates"):
+        measure_headroom("scene1", after=0, n_candidates=5, preset="smoke")

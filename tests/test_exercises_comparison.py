@@ -3,44 +3,47 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from stair_lite.exercises.comparison import check_welch_p_value
+from stair_lite.exercises.comparison import check_paired_p_value
 
 
-def welch_ok(a, b):
+def paired_ok(a, b):
+    return stats.ttest_rel(a, b).pvalue
+
+
+def paired_welch(a, b):
     return stats.ttest_ind(a, b, equal_var=False).pvalue
 
 
-def welch_student(a, b):
+def paired_student(a, b):
     return stats.ttest_ind(a, b, equal_var=True).pvalue
 
 
-def welch_one_sided(a, b):
-    return stats.ttest_ind(a, b, equal_var=False).pvalue / 2
+def paired_one_sided(a, b):
+    return stats.ttest_rel(a, b).pvalue / 2
 
 
-def welch_ddof0(a, b):
-    va, vb = a.var() / len(a), b.var() / len(b)
-    t = (a.mean() - b.mean()) / np.sqrt(va + vb)
-    dof = (va + vb) ** 2 / (va ** 2 / (len(a) - 1) + vb ** 2 / (len(b) - 1))
-    return 2 * stats.t.sf(abs(t), dof)
+def paired_ddof0(a, b):
+    d = a - b
+    return 2 * stats.t.sf(abs(d.mean() / (d.std() / np.sqrt(len(d)))), len(d) - 1)
 
 
-def welch_normal(a, b):
-    t = (a.mean() - b.mean()) / np.sqrt(a.var(ddof=1) / len(a) + b.var(ddof=1) / len(b))
-    return 2 * stats.norm.sf(abs(t))
+def paired_normal(a, b):
+    d = a - b
+    return 2 * stats.norm.sf(abs(d.mean() / (d.std(ddof=1) / np.sqrt(len(d)))))
 
 
 def stub(a, b):
     raise NotImplementedError
 
 
-def test_a_correct_welch_test_passes():
-    assert check_welch_p_value(welch_ok)
+def test_a_correct_paired_test_passes():
+    assert check_paired_p_value(paired_ok)
 
 
-@pytest.mark.parametrize("wrong,hint", [(welch_student, "pooled"), (welch_one_sided, "two-sided"),
-                                        (welch_ddof0, "ddof=1"), (welch_normal, "normal distribution"),
-                                        (stub, "NotImplementedError"), (lambda a, b: 0.5, "expected")])
-def test_wrong_welch_tests_are_caught_with_a_hint(wrong, hint):
+@pytest.mark.parametrize("wrong,hint", [(paired_welch, "unpaired"), (paired_student, "unpaired"),
+                                        (paired_one_sided, "two-sided"), (paired_ddof0, "ddof=1"),
+                                        (paired_normal, "normal distribution"), (stub, "NotImplementedError"),
+                                        (lambda a, b: 0.5, "expected")])
+def test_wrong_paired_tests_are_caught_with_a_hint(wrong, hint):
     with pytest.raises(AssertionError, match=hint):
-        check_welch_p_value(wrong)
+        check_paired_p_value(wrong)

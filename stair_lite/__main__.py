@@ -220,19 +220,21 @@ def _cmd_report(args):
         raise ValueError(f"no finished mission results under {root}")
     table = write_table(rows, root / "results.csv")
     labels = {"psnr": "target-only PSNR [dB]", "psnr_clean": "target-only PSNR, clean protocol [dB]",
-              "f1": "target mesh F1 (1 cm)"}
-    for metric in metrics_of(rows):
+              "f1": "target mesh F1 (1 cm)", "f1_2cm": "target mesh F1 (2 cm)", "f1_5cm": "target mesh F1 (5 cm)",
+              "chamfer": "target mesh chamfer distance [m]"}
+    metrics = metrics_of(rows)
+    for metric in metrics:
         axes = plot_sweep_curves(rows, metric, ylabel=labels[metric])
         axes[0].figure.tight_layout()
         axes[0].figure.savefig(root / f"curves_{metric}.png", dpi=90)
     plt.close("all")
-    metrics = metrics_of(rows)
-    print(f"{'scene':10s} {'variant':16s} {'n':>2s}" + "".join(f" {m + ' mean-over-steps':>24s} {m + ' final':>16s}" for m in metrics))
+    print("area under each curve (the mean over the steps), mean +- std over seeds; chamfer in cm")
+    scale = {"chamfer": 100.0}
+    print(f"{'scene':10s} {'variant':16s} {'n':>2s}" + "".join(f" {m:>15s}" for m in metrics))
     for e in summary(rows, metrics):
         print(f"{e['scene']:10s} {e['variant']:16s} {e['seeds']:2d}" + "".join(
-            f" {e[m + '_auc_mean']:15.3f} +- {e[m + '_auc_std']:5.3f} {e[m + '_final_mean']:7.3f} +- {e[m + '_final_std']:5.3f}"
-            for m in metrics))
-    print(f"wrote {table}, " + ", ".join(str(root / f"curves_{m}.png") for m in metrics_of(rows)))
+            f" {scale.get(m, 1) * e[m + '_auc_mean']:7.3f} +- {scale.get(m, 1) * e[m + '_auc_std']:4.2f}" for m in metrics))
+    print(f"wrote {table}, " + ", ".join(str(root / f"curves_{m}.png") for m in metrics))
     return 0
 
 

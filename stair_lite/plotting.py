@@ -162,7 +162,7 @@ def plot_headroom(headroom, metrics=("f1", "psnr_clean"), axes=None):
     hemisphere (seen from above; the planners' picks marked), then per metric the gain against STAIR's utility
     with its rank correlation."""
     if axes is None:
-        fig = plt.figure(figsize=(4.2 * (1 + len(metrics)), 3.8))
+        fig = plt.figure(figsize=(4.2 * (1 + len(metrics)), 4.2))
         axes = [fig.add_subplot(1, 1 + len(metrics), 1, projection="polar")] + [
             fig.add_subplot(1, 1 + len(metrics), 2 + i) for i in range(len(metrics))]
     markers = {"stair": ("*", "tab:red"), "exploration": ("^", "tab:blue"), "max_distance": ("s", "tab:green")}
@@ -178,7 +178,8 @@ def plot_headroom(headroom, metrics=("f1", "psnr_clean"), axes=None):
         axes[0].scatter(t, rad, marker=marker, s=120, facecolor="none", edgecolor=colour, linewidth=1.5, label=kind)
     axes[0].set_ylim(0, 90)
     axes[0].set_yticklabels([])
-    axes[0].set_title(f"{headroom.scene}, after {headroom.after} views:\n{metrics[0]} gain of each next view", fontsize=9)
+    axes[0].set_title(f"{headroom.scene}, after {headroom.after} views: {metrics[0]} gain\nof each next view (centre: top, rim: horizon)",
+                      fontsize=9, pad=14)
     axes[0].legend(fontsize=7, loc="lower left", bbox_to_anchor=(-0.25, -0.2))
     plt.colorbar(im, ax=axes[0], fraction=0.046, pad=0.12)
     for ax, metric in zip(axes[1:], metrics):

@@ -29,6 +29,21 @@ def test_sweep_runs_resumes_and_tabulates(tmp_path):
     assert entry["psnr_auc_mean"] == pytest.approx((uniform[0]["psnr"] + uniform[1]["psnr"]) / 2)
 
 
+def test_report_shows_every_metric_with_areas_under_the_curves(tmp_path, capsys):
+    from stair_lite.__main__ import main
+
+    run_sweep(spec(variants=("uniform",)), tmp_path, progress=False)
+    assert main(["report", "--results", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    header = next(line for line in out.splitlines() if line.startswith("scene "))
+    for metric in ("psnr", "psnr_clean", "f1", "f1_2cm", "f1_5cm", "chamfer"):
+        assert metric in header.split() and (tmp_path / f"curves_{metric}.png").exists()
+    row = next(line for line in out.splitlines() if line.startswith("scene1"))
+    rows = collect(tmp_path)
+    chamfer_auc_cm = 100 * sum(r["chamfer"] for r in rows) / len(rows)
+    assert f"{chamfer_auc_cm:7.3f}" in row  # the chamfer's area under the curve, in cm
+
+
 def test_corrupt_cell_is_reported_and_redone(tmp_path):
     run_sweep(spec(variants=("uniform",)), tmp_path, progress=False)
     path = Cell("scene1", "uniform", 0).folder(tmp_path) / "metrics.json"

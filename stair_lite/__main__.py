@@ -212,19 +212,16 @@ def _cmd_report(args):
 
     from .claims import metrics_of
     from .experiments import collect, summary, write_table
-    from .plotting import plot_sweep_curves
+    from .plotting import METRIC_LABELS, plot_sweep_curves
 
     root = Path(args.results)
     rows = collect(root, log=_warn)
     if not rows:
         raise ValueError(f"no finished mission results under {root}")
     table = write_table(rows, root / "results.csv")
-    labels = {"psnr": "target-only PSNR [dB]", "psnr_clean": "target-only PSNR, clean protocol [dB]",
-              "f1": "target mesh F1 (1 cm)", "f1_2cm": "target mesh F1 (2 cm)", "f1_5cm": "target mesh F1 (5 cm)",
-              "chamfer": "target mesh chamfer distance [m]"}
     metrics = metrics_of(rows)
     for metric in metrics:
-        axes = plot_sweep_curves(rows, metric, ylabel=labels[metric])
+        axes = plot_sweep_curves(rows, metric, ylabel=METRIC_LABELS[metric])
         axes[0].figure.tight_layout()
         axes[0].figure.savefig(root / f"curves_{metric}.png", dpi=90)
     plt.close("all")

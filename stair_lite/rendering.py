@@ -120,7 +120,8 @@ def sample_field(field, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderCo
     (R, S), zero where the field is not evaluated (outside the cube, or in a cell ``skip`` leaves out), the
     flat mask ``evaluate`` of evaluated samples and their ``located`` corners (``SemanticField.locate``).
     With ``semantics``, also the class logits (R, S, P) of the evaluated samples (zero elsewhere) and their
-    colour features ``f_rgb``, from one lookup of the appearance grid."""
+    colour features ``f_rgb``, from one lookup of the appearance grid. With a measured ``depth`` (training), a ray
+    that hit something is sampled only up to ``cfg.behind_surface`` behind it."""
     t_near, t_far, hit = ray_box_intersection(origins, dirs, field.lattice.bound, cfg.near)
     if depth is not None and cfg.behind_surface is not None:
         # a measured depth tells what lies in front of the surface and nothing of what lies behind it: a training

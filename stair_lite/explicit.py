@@ -1,4 +1,5 @@
-"""The explicit baseline STE (paper Sec. IV-C, after Zaenker et al. [tobias2021iros]): a semantic
+"""The explicit baseline STE (paper Sec. IV-C, after Zaenker et al., IROS 2021 [tobias2021iros]
+in REFERENCES.md): a semantic
 occupancy voxel map updated by casting measured rays, and its region-of-interest planner.
 
 Introduced in notebook 06. The map keeps, per voxel, occupancy log-odds updated as OctoMap does

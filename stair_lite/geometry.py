@@ -1,6 +1,6 @@
 """Camera geometry: intrinsics, look-at poses on the hemisphere, view samplers and pixel rays.
 
-Introduced in notebook 01. Conventions (DESIGN.md): metres, world z up; a pose is a 4x4
+Introduced in notebook 01. Conventions (README, Design): metres, world z up; a pose is a 4x4
 camera-to-world matrix in the OpenCV convention (x right, y down, z forward); a *view* is
 (elevation, azimuth) in radians on the hemisphere of radius 2 m, looking at the origin.
 """

@@ -1,6 +1,6 @@
 """The Measurement record (one posed RGB-D image with semantic labels) and its back-projection.
 
-Introduced in notebook 01. Images follow DESIGN.md: rgb float32 (H, W, 3) in [0, 1]; depth float32
+Introduced in notebook 01. Images follow the conventions (README, Design): rgb float32 (H, W, 3) in [0, 1]; depth float32
 z-depth in metres with 0 where nothing was hit; labels integer class ids.
 """
 from __future__ import annotations

@@ -115,9 +115,11 @@ def cell_state(cell: Cell, root: Path, budget: int) -> str:
 
 def run_cell(cell: Cell, root: str, preset: str, budget: int, threads: int | None = None,
              device: str = "cpu") -> tuple[Cell, str]:
-    """Run (or resume) one cell; a corrupt or unresumable cell is redone from scratch."""
+    """Run (or resume) one cell with ``threads`` torch threads (None: as the process is set; the thread count is
+    restored after); a corrupt or unresumable cell is redone from scratch."""
     import torch
 
+    previous = torch.get_num_threads()
     if threads:
         torch.set_num_threads(threads)
     root = Path(root)
@@ -129,6 +131,8 @@ def run_cell(cell: Cell, root: str, preset: str, budget: int, threads: int | Non
     except ResultsFolderError as err:  # an unusable partial result: start the cell again
         Mission(config, out=cell.folder(root), overwrite=True, device=device).run()
         return cell, f"redone ({err})"
+    finally:
+        torch.set_num_threads(previous)
 
 
 @dataclass(frozen=True)
@@ -252,8 +256,8 @@ def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: boo
     try:
         if workers <= 1 and scheduler is None:
             while ready := release():
-                for c in ready:
-                    done(run_cell(c, str(root), spec.preset, spec.budget, device=device))
+                for c in ready:  # one torch thread, as a cluster's workers: float sums depend on the thread count
+                    done(run_cell(c, str(root), spec.preset, spec.budget, threads=1, device=device))
         else:
             with dask_client(workers, scheduler) as client:
                 run_on_cluster(client, release, done, root, spec, device)

@@ -153,3 +153,30 @@ def test_a_dead_worker_fails_its_cell_and_the_rerun_completes_the_table(tmp_path
     assert sorted(o for _, o in rerun).count("finished before") == 5
     rows = collect(tmp_path)
     assert len(rows) == 6 * 3 and {(r["variant"], r["seed"]) for r in rows} == {(v, k) for v in sweep.variants for k in (0, 1)}
+
+
+def test_cells_run_in_this_process_at_one_thread(tmp_path, monkeypatch):
+    """A stored cell must not depend on how its sweep was started: in-process cells run at one torch thread, as a
+    cluster's workers do (float sums depend on the thread count), and the process's count is restored."""
+    import torch
+
+    import stair_lite.experiments as experiments
+
+    seen = []
+
+    class Recorder:
+        def __init__(self, *args, **kwargs):
+            seen.append(torch.get_num_threads())
+
+        def run(self):
+            raise RuntimeError("recorded")
+
+    monkeypatch.setattr(experiments, "Mission", Recorder)
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        with pytest.raises(RuntimeError, match="recorded"):
+            run_sweep(spec(variants=("uniform",)), tmp_path, progress=False)
+        assert seen == [1] and torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from .claims import LOWER_IS_BETTER
 from .geometry import Intrinsics, fibonacci_hemisphere, view_to_pose
 from .maps import ImplicitMap
 from .mission import Mission, MissionConfig
@@ -27,7 +28,6 @@ from .planners import far_enough, make_planner, mean_squared_distance
 from .utility import FieldSnapshot, UtilityOptions, score_views
 
 METRICS = ("psnr", "psnr_clean", "f1", "f1_5cm", "chamfer")
-LOWER_IS_BETTER = ("chamfer",)
 UTILITIES = ("stair", "exploration", "max_distance")  # the planners whose utility and pick are measured
 
 

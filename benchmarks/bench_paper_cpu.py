@@ -6,6 +6,10 @@ reproduced here) gave 1.40 s per iteration, 0.42 s per candidate render, about 1
 and 1.9 GB; the README quotes it with its conditions.
 
 Run: .venv/bin/python benchmarks/bench_paper_cpu.py [--repeats 3] [--planning-steps 1]
+     .venv/bin/python benchmarks/bench_paper_cpu.py --mission [--budget 10] [--iterations 5]
+With ``--mission``: instead, one whole paper-preset STAIR mission (planning, training and the paper's
+evaluation after every step: 100 test views at 400x400, a 256^3 mesh lattice, 1e6 points per mesh) on a cut
+training schedule, and its peak memory (the schedule sets the time, not the memory: the batch is the paper's).
 """
 import argparse
 import resource
@@ -19,6 +23,7 @@ import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
 from stair_lite.geometry import TOP_VIEW, Intrinsics, fibonacci_hemisphere, view_to_pose
 from stair_lite.maps import ImplicitMap
+from stair_lite.mission import Mission, MissionConfig
 from stair_lite.planners import make_planner
 from stair_lite.scenes import load_scene
 from stair_lite.simulator import Simulator
@@ -30,8 +35,13 @@ def main():
     parser.add_argument("--repeats", type=int, default=3, help="timed runs of skip_refresh training iterations")
     parser.add_argument("--planning-steps", type=int, default=1)
     parser.add_argument("--scene", default="scene1")
+    parser.add_argument("--mission", action="store_true", help="measure one whole mission's peak memory instead")
+    parser.add_argument("--budget", type=int, default=10, help="(--mission) measurements")
+    parser.add_argument("--iterations", type=int, default=5, help="(--mission) training iterations per view")
     args = parser.parse_args()
     preset = get_preset("paper")
+    if args.mission:
+        return whole_mission(preset, args.scene, args.budget, args.iterations)
     scene = load_scene(args.scene)
     sim = Simulator(scene)
     implicit = ImplicitMap.from_preset(preset, seed=0)
@@ -85,6 +95,17 @@ def main():
         print(f"one planning step ({len(decision.candidates)} candidates): median {statistics.median(steps):.1f} s "
               f"over {args.planning_steps}")
     print(f"peak resident memory: {peak_gb():.2f} GB (after training: {peak_after_training:.2f} GB)")
+
+
+def whole_mission(preset, scene: str, budget: int, iterations: int) -> None:
+    """One STAIR mission of ``budget`` views at the paper preset with ``iterations`` per view; its peak memory."""
+    preset = replace(preset, train=replace(preset.train, iterations_per_view=iterations))
+    start = time.perf_counter()
+    mission = Mission(MissionConfig(scene=scene, planner="stair", seed=0, preset="paper", budget=budget), preset=preset)
+    mission.run(on_step=lambda record: print(f"step {record['step']}: {time.perf_counter() - start:.0f} s, peak so "
+                                             f"far {peak_gb():.2f} GB, F1 {record['f1']:.3f}", flush=True))
+    print(f"one paper-preset mission of {budget} views ({iterations} iterations per view), evaluation after every "
+          f"step: peak resident memory {peak_gb():.2f} GB")
 
 
 def peak_gb() -> float:

@@ -1,6 +1,6 @@
 """Benchmark of view planning and of a whole mission (lite preset by default).
 
-Run: .venv/bin/python benchmarks/bench_planning.py [--preset lite] [--repeats 5] [--mission] [--iterations N]
+Run: .venv/bin/python benchmarks/bench_planning.py [--preset lite] [--repeats 5] [--mission] [--iterations N] [--sets 4]
 Prints: the median time of one STAIR planning step and of one STE planning step (all N_uni + K * N_re candidate renders, from the
 field snapshot), how often the snapshot picks the same view as the exact field (every sample through
 the MLPs) on the same candidates, the exact-utility regret when it does not, and (with --mission) the
@@ -30,6 +30,7 @@ def main():
     parser.add_argument("--scene", default="scene1")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--mission", action="store_true", help="also time one full STAIR mission")
+    parser.add_argument("--sets", type=int, default=4, help="candidate sets on which the snapshot meets the exact field")
     parser.add_argument("--iterations", type=int, default=None,
                         help="training iterations per view of the field planned on (default: the preset's; a cut "
                              "schedule makes the paper preset affordable on a CPU)")
@@ -60,7 +61,7 @@ def main():
     options = UtilityOptions(epsilon=p.epsilon)
     same, regrets = 0, []
     rng = np.random.default_rng(1)
-    trials = 4
+    trials = args.sets
     for _ in range(trials):
         candidates = fibonacci_hemisphere(p.n_uniform, azimuth_offset=rng.uniform(0, 2 * np.pi))
         fast = score_views(FieldSnapshot(field), candidates, scene.targets, k, p.candidate_samples, options).utility

@@ -48,12 +48,14 @@ def corner_indices_and_weights(x_normalised: torch.Tensor, resolution: int) -> t
 
 
 class _TrilinearLookup(torch.autograd.Function):
-    """sum_k w_k V[idx_k]; the backward pass scatter-adds w_k * grad into the 8 touched rows."""
+    """sum_k w_k V[idx_k]; the backward pass scatter-adds w_k * grad into the 8 touched rows: of a new zero table,
+    or, with ``into_grad``, of the table's existing ``.grad`` (in training: no full-size zero table per pass, which
+    at 128^3 costs more than the scatter itself)."""
 
     @staticmethod
-    def forward(ctx, table, index, weights):
+    def forward(ctx, table, index, weights, into_grad=False):
         ctx.save_for_backward(index, weights)
-        ctx.rows = table.shape[0]
+        ctx.table, ctx.into_grad = table, into_grad
         # a weighted sum of 8 table rows per point: exactly what a weighted embedding bag computes
         return F.embedding_bag(index, table, per_sample_weights=weights, mode="sum")
 
@@ -61,9 +63,13 @@ class _TrilinearLookup(torch.autograd.Function):
     def backward(ctx, grad_out):
         index, weights = ctx.saved_tensors
         contributions = (weights[:, :, None] * grad_out[:, None, :]).reshape(-1, grad_out.shape[1])
-        grad_table = torch.zeros(ctx.rows, grad_out.shape[1], dtype=grad_out.dtype, device=grad_out.device)
+        existing = ctx.table.grad if ctx.into_grad else None
+        if existing is not None:
+            existing.index_add_(0, index.reshape(-1), contributions)
+            return None, None, None, None
+        grad_table = torch.zeros(ctx.table.shape[0], grad_out.shape[1], dtype=grad_out.dtype, device=grad_out.device)
         grad_table.index_add_(0, index.reshape(-1), contributions)
-        return grad_table, None, None
+        return grad_table, None, None, None
 
 
 def trilinear(table: torch.Tensor, resolution: int, x_normalised: torch.Tensor) -> torch.Tensor:
@@ -80,14 +86,15 @@ class Located:
     index: torch.Tensor  # (N, 8) rows of the (R^3, C) tables
     weights: torch.Tensor  # (N, 8) trilinear weights
     pe: torch.Tensor  # (N, 21) positional encoding
+    grad_into_existing: bool = False  # backward adds the tables' gradients into their .grad (SemanticField)
 
     def subset(self, rows: torch.Tensor) -> "Located":
         """The same for the points selected by ``rows`` (a boolean mask or indices)."""
-        return Located(self.index[rows], self.weights[rows], self.pe[rows])
+        return Located(self.index[rows], self.weights[rows], self.pe[rows], self.grad_into_existing)
 
     def read(self, table: torch.Tensor) -> torch.Tensor:
         """interp(x, V) of Eq. 1 for a (R^3, C) table: (N, C)."""
-        return _TrilinearLookup.apply(table, self.index, self.weights)
+        return _TrilinearLookup.apply(table, self.index, self.weights, self.grad_into_existing)
 
 
 def mlp(n_in: int, hidden: tuple[int, ...], n_out: int) -> nn.Sequential:
@@ -125,6 +132,9 @@ class SemanticField(nn.Module):
             nn.init.zeros_(self.occ_mlp[0].bias)
         self.rgb_mlp = mlp(cfg.rgb_channels + pe_dim, cfg.rgb_hidden, 3)
         torch.random.set_rng_state(generator_state)
+        # True while training.accumulate_gradient runs: the grids' gradients are added into their existing .grad
+        # (the sum autograd would form) instead of into a new full-size zero table per pass
+        self.grid_grad_into_existing = False
 
     @staticmethod
     def _grid_view(table: torch.Tensor, start: int, stop: int, r: int) -> torch.Tensor:
@@ -162,7 +172,7 @@ class SemanticField(nn.Module):
         """Corner rows, trilinear weights and gamma(x) of world points x (N, 3)."""
         xn = self.lattice.normalise(x)
         index, weights = corner_indices_and_weights(xn, self.cfg.grid_resolution)
-        return Located(index, weights, positional_encoding(xn, self.cfg.pe_frequencies))
+        return Located(index, weights, positional_encoding(xn, self.cfg.pe_frequencies), self.grid_grad_into_existing)
 
     def occupancy_at(self, located: Located) -> torch.Tensor:
         """o at located points (N,): V_occ read there, then the occupancy head."""

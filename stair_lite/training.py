@@ -149,13 +149,17 @@ def accumulate_gradient(field, batch: dict[str, torch.Tensor], cfg: TrainConfig,
     rgb, depth, semantic) as batch means."""
     n = len(batch["depth"])
     terms = torch.zeros(4)
-    for start in range(0, n, cfg.rays_per_pass):
-        part = {k: v[start : start + cfg.rays_per_pass] for k, v in batch.items()}
-        out = render_rays(field, part["origins"], part["dirs"], render_cfg, generator=generator, depth=part["depth"], skip=skip)
-        share = len(part["depth"]) / n
-        part_terms = loss_terms(out, part, cfg)
-        (part_terms[0] * share).backward()
-        terms += torch.stack([t.detach().cpu() for t in part_terms]) * share
+    try:
+        for start in range(0, n, cfg.rays_per_pass):
+            field.grid_grad_into_existing = True  # add into the grids' .grad where one exists (no zero table per pass)
+            part = {k: v[start : start + cfg.rays_per_pass] for k, v in batch.items()}
+            out = render_rays(field, part["origins"], part["dirs"], render_cfg, generator=generator, depth=part["depth"], skip=skip)
+            share = len(part["depth"]) / n
+            part_terms = loss_terms(out, part, cfg)
+            (part_terms[0] * share).backward()
+            terms += torch.stack([t.detach().cpu() for t in part_terms]) * share
+    finally:
+        field.grid_grad_into_existing = False
     return terms
 
 
@@ -203,7 +207,7 @@ class Trainer:
 
     def step(self, batch: dict[str, torch.Tensor]) -> Losses:
         """One gradient step on a batch of rays."""
-        self.optimizer.zero_grad(set_to_none=True)
+        self.optimizer.zero_grad(set_to_none=False)  # zeroed in place: the grids' gradient tables are reused
         terms = accumulate_gradient(self.field, batch, self.cfg, self.render_cfg, self.generator, self.skip)
         if not torch.isfinite(terms[0]):
             raise FloatingPointError(f"non-finite training loss {terms[0].item()} at iteration {self.iterations}")

@@ -132,7 +132,8 @@ def test_bad_measurements_are_rejected_before_training(sim):
 
 def test_a_batch_in_several_passes_has_the_gradient_of_one_pass(sim):
     """rays_per_pass changes memory, not the gradient: the passes' shares add up to the batch's gradient
-    (samples without jitter, so that both see the same samples)."""
+    (samples without jitter, so that both see the same samples); the later passes add the grids' shares into
+    their .grad in place."""
     from stair_lite.training import accumulate_gradient
 
     buffer = RayBuffer()
@@ -148,6 +149,7 @@ def test_a_batch_in_several_passes_has_the_gradient_of_one_pass(sim):
                 grid.normal_(0, 1.0, generator=generator)
             field.occ_mlp[-1].bias.fill_(3.0)  # occupancies around 0.05: colour and classes matter too
         terms.append(accumulate_gradient(field, batch, TrainConfig(rays_per_pass=per_pass), SMALL_RENDER))
+        assert not field.grid_grad_into_existing  # the later passes' in-place adding ends with the batch
         grads.append([torch.zeros_like(p) if p.grad is None else p.grad.clone() for p in field.parameters()])
     torch.testing.assert_close(terms[0], terms[1], rtol=1e-5, atol=1e-6)
     for a, b in zip(*grads):

@@ -115,13 +115,21 @@ def angle_colatitude(a, b):
     return np.arccos(np.clip(np.cos(a[0]) * np.cos(b[0]) + np.sin(a[0]) * np.sin(b[0]) * np.cos(a[1] - b[1]), -1, 1))
 
 
+def angle_unclipped(a, b):
+    def unit(v):
+        return np.array([np.cos(v[0]) * np.cos(v[1]), np.cos(v[0]) * np.sin(v[1]), np.sin(v[0])])
+    with np.errstate(invalid="ignore"):
+        return float(np.arccos(unit(a) @ unit(b)))  # NaN where rounding takes the dot product past 1
+
+
 def test_view_angle_accepts_correct():
     assert check_view_angle(angle_ok)
 
 
 @pytest.mark.parametrize(
     "wrong, hint",
-    [(angle_flat, "flat plane"), (angle_chord, "chord"), (angle_degrees, "degrees"), (angle_colatitude, "view_angle is wrong")],
+    [(angle_flat, "flat plane"), (angle_chord, "chord"), (angle_degrees, "degrees"), (angle_colatitude, "view_angle is wrong"),
+     (angle_unclipped, "clip it")],
 )
 def test_view_angle_rejects_wrong(wrong, hint):
     with pytest.raises(AssertionError, match=hint):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..lattice import CUBE_BOUND
-from .common import as_array as _as_array, call as _call
+from .common import as_array as _as_array, call as _call, compares_with
 
 _ATOL = 1e-6
 
@@ -65,6 +65,7 @@ def _weights_hint(occ, T, w) -> str:
     return "T_i = prod_{j<i} (1 - o_j) (an exclusive cumulative product, T_1 = 1) and w_i = o_i * T_i"
 
 
+@compares_with(_weights_reference)
 def check_transmittance_and_weights(transmittance_and_weights, n_trials: int = 20, seed: int = 0) -> bool:
     """``transmittance_and_weights(occ)`` takes occupancies (R, S) in [0, 1] (R rays, S samples each, in
     order along the ray) and returns ``(T, w)``, both (R, S): T_i = prod_{j<i} (1 - o_j), w_i = o_i T_i."""
@@ -93,16 +94,21 @@ def check_transmittance_and_weights(transmittance_and_weights, n_trials: int = 2
 # --------------------------------------------------------------------------------------------------
 # Exercise 2: the 8 vertices and trilinear weights of a point in the grid
 # --------------------------------------------------------------------------------------------------
-def _corners_reference(point: np.ndarray, bound: float, resolution: int) -> np.ndarray:
-    """Dense (R, R, R) array indexed [i, j, k] holding each vertex's trilinear weight for ``point``."""
+def _corners_and_weights_reference(point, bound: float, resolution: int) -> tuple[np.ndarray, np.ndarray]:
+    """The (8, 3) vertex indices (i, j, k) of the cell holding ``point`` and their (8,) trilinear weights."""
     r = resolution
-    p = (np.clip(point, -bound, bound) + bound) / (2 * bound) * (r - 1)
+    p = (np.clip(np.asarray(point, dtype=np.float64), -bound, bound) + bound) / (2 * bound) * (r - 1)
     i0 = np.clip(np.floor(p), 0, r - 2).astype(int)
     f = p - i0
-    dense = np.zeros((r, r, r))
-    for corner in np.ndindex(2, 2, 2):
-        c = np.array(corner)
-        dense[tuple(i0 + c)] += np.prod(np.where(c == 1, f, 1.0 - f))
+    offsets = np.array(list(np.ndindex(2, 2, 2)))
+    return i0 + offsets, np.prod(np.where(offsets == 1, f, 1.0 - f), axis=1)
+
+
+def _corners_reference(point: np.ndarray, bound: float, resolution: int) -> np.ndarray:
+    """Dense (R, R, R) array indexed [i, j, k] holding each vertex's trilinear weight for ``point``."""
+    dense = np.zeros((resolution,) * 3)
+    corners, weights = _corners_and_weights_reference(point, bound, resolution)
+    np.add.at(dense, tuple(corners.T), weights)
     return dense
 
 
@@ -157,6 +163,7 @@ def _corners_hint(point, bound, resolution, dense) -> str:
             "corner i0 + c (c in {0,1}^3) gets weight prod over axes of (f if c = 1 else 1 - f)")
 
 
+@compares_with(_corners_and_weights_reference)
 def check_trilinear_corners(trilinear_corners, n_trials: int = 200, seed: int = 0) -> bool:
     """``trilinear_corners(point, bound, resolution)`` takes a point (3,) inside the cube [-bound, bound]^3
     of a grid with R = ``resolution`` vertices per axis ON the cube's corners (vertex i at
@@ -216,6 +223,7 @@ def _composite_hint(weights, t, colours, rgb, depth) -> str:
     return "C = sum_i w_i c_i + (1 - sum_i w_i) * white, D = sum_i w_i t_i"
 
 
+@compares_with(_composite_reference)
 def check_composite(composite, n_trials: int = 20, seed: int = 0) -> bool:
     """``composite(weights, t, colours)`` takes weights (R, S) (with sum_i w_i <= 1 per ray), sample depths
     t (R, S) and sample colours (R, S, 3) and returns ``(rgb, depth)``: rgb (R, 3) = sum_i w_i c_i plus

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..planners import MIN_SEPARATION
-from .common import call as _call
+from .common import call as _call, compares_with
 
 # --------------------------------------------------------------------------------------------------
 # helpers
@@ -90,6 +90,11 @@ _MAX_DISTANCE_HINTS = {
 }
 
 
+def _max_distance_reference(candidates, visited, min_separation):
+    return _max_distance_variants(np.asarray(candidates), np.asarray(visited), min_separation)["right"]
+
+
+@compares_with(_max_distance_reference)
 def check_max_distance_choice(max_distance_choice, n_random: int = 60, seed: int = 0) -> bool:
     """``max_distance_choice(candidates, visited, min_separation)`` takes candidate views (N, 2) and visited
     views (M, 2) as (elevation, azimuth) in radians and a minimum separation in radians, and returns the
@@ -170,6 +175,7 @@ def _curve_cases(rng: np.random.Generator, n_random: int):
     return cases
 
 
+@compares_with(_first_step_reference)
 def check_first_step_above(first_step_above, n_random: int = 100, seed: int = 0) -> bool:
     """``first_step_above(records, key, threshold)`` returns the step number (the record's ``"step"``: the
     number of measurements taken, 1 for the top view) at which ``record[key]`` first EXCEEDS (>) the
@@ -206,6 +212,7 @@ def check_first_step_above(first_step_above, n_random: int = 100, seed: int = 0)
     return True
 
 
+@compares_with(_area_reference)
 def check_area_under_curve(area_under_curve, n_random: int = 100, seed: int = 0) -> bool:
     """``area_under_curve(records, key)`` returns the area under ``record[key]`` plotted against the step
     (the number of measurements), by the trapezoidal rule: sum over consecutive steps of

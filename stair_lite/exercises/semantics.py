@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..classes import BACKGROUND, NUM_CLASSES
-from .common import as_array as _as_array, call as _call
+from .common import as_array as _as_array, call as _call, compares_with
 
 _ATOL = 1e-6
 
@@ -47,6 +47,7 @@ def _semantics_reference(weights, probs):
     return s
 
 
+@compares_with(_semantics_reference)
 def check_render_semantics(render_semantics, n_trials: int = 100, seed: int = 0) -> bool:
     """``render_semantics(weights, probs)`` takes the compositing weights (S,) of one ray and the class
     probabilities (S, P) of its samples, and returns the rendered class distribution (P,):
@@ -91,6 +92,7 @@ def _target_only_reference(occ, logits, targets):
     return occ * np.isin(logits.argmax(axis=1), targets)
 
 
+@compares_with(_target_only_reference)
 def check_target_only_occupancy(target_only_occupancy, n_trials: int = 50, seed: int = 0) -> bool:
     """``target_only_occupancy(occ, logits, targets)`` takes occupancies (N,), semantic logits (N, P) and a
     tuple of target class ids, and returns new occupancies (N,): unchanged where the argmax class is a
@@ -141,6 +143,7 @@ def _replay_reference(counts):
     return w / w.sum()
 
 
+@compares_with(_replay_reference)
 def check_replay_probabilities(replay_probabilities, n_trials: int = 50, seed: int = 0) -> bool:
     """``replay_probabilities(use_counts)`` takes the integer use counts (N,) of the old rays (0 = never used
     in a batch yet) and returns the probability (N,) of drawing each one as the next replay ray:

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..geometry import Intrinsics, view_to_pose
 from ..measurement import Measurement, back_project
-from .common import as_array as _as_array, call as _call
+from .common import as_array as _as_array, call as _call, compares_with
 
 _ATOL = 1e-6
 
@@ -42,6 +42,7 @@ def _ray_reference(u, v, K):
     return np.array([(u + 0.5 - K[0, 2]) / K[0, 0], (v + 0.5 - K[1, 2]) / K[1, 1], 1.0])
 
 
+@compares_with(_ray_reference)
 def check_pixel_to_ray(pixel_to_ray, n_trials: int = 50, seed: int = 0) -> bool:
     """``pixel_to_ray(u, v, K)`` must return the camera-frame direction (x, y, 1) through the centre of
     pixel (u, v) (u = column, v = row), with z component exactly 1 (so the ray parameter is z-depth)."""
@@ -96,6 +97,7 @@ def _project_hint(points, pose, K, uv, z) -> str:
     return "world -> camera: p_cam = R^T (p_world - t); camera -> image: (fx x / z + cx, fy y / z + cy); depth = z"
 
 
+@compares_with(_project_reference)
 def check_project(project, n_trials: int = 10, seed: int = 0) -> bool:
     """``project(points, pose, K)`` takes world points (N, 3), an OpenCV camera-to-world pose and K and
     returns ``(uv, z)``: continuous image coordinates (N, 2) (pixel (u, v) spans [u, u+1) x [v, v+1),
@@ -164,6 +166,7 @@ def _angle_reference(a, b) -> float:
     return float(np.arccos(np.clip(_unit(a) @ _unit(b), -1.0, 1.0)))
 
 
+@compares_with(_angle_reference)
 def check_view_angle(view_angle, n_trials: int = 200, seed: int = 0) -> bool:
     """``view_angle(view_a, view_b)`` takes two views (elevation, azimuth) in radians and returns the
     great-circle angle in radians between the two camera directions (as seen from the origin)."""
@@ -176,12 +179,19 @@ def check_view_angle(view_angle, n_trials: int = 200, seed: int = 0) -> bool:
     ]
     for _ in range(n_trials):
         pairs.append(tuple((rng.uniform(0, np.pi / 2), rng.uniform(0, 2 * np.pi)) for _ in range(2)))
+    for _ in range(n_trials // 4):  # identical views: rounding takes d_a . d_b just above 1 for some of them
+        view = (rng.uniform(0, np.pi / 2), rng.uniform(0, 2 * np.pi))
+        pairs.append((view, view))
     for a, b in pairs:
         got = _call(view_angle, a, b)
         if got is None:
             raise AssertionError("view_angle(view_a, view_b) returned None: fill in the function body")
         got = float(np.asarray(got).reshape(()))
         want = _angle_reference(a, b)
+        if np.isnan(got):
+            raise AssertionError(
+                f"view_angle returned NaN for views {np.round(a, 4)} and {np.round(b, 4)}\nHint: rounding can take the "
+                "dot product of two unit vectors just past 1 (the same view twice): clip it to [-1, 1] before arccos")
         if abs(got - want) <= 1e-6:
             continue
         if abs(got - 2 * np.sin(want / 2)) <= 1e-6 or abs(got - 4 * np.sin(want / 2)) <= 1e-6:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..classes import NUM_CLASSES
-from .common import as_array as _as_array, call as _call
+from .common import as_array as _as_array, call as _call, compares_with
 
 _ATOL = 1e-6
 
@@ -48,6 +48,7 @@ def _ray_entropy_reference(occ: np.ndarray) -> np.ndarray:
     return (transmittance * _entropy(occ)).sum(axis=1)
 
 
+@compares_with(_ray_entropy_reference)
 def check_ray_entropy(ray_entropy, n_trials: int = 20, seed: int = 0) -> bool:
     """``ray_entropy(occ)`` takes occupancies ``(R, S)`` (numpy, samples ordered from the camera outwards)
     and returns H_ray ``(R,)`` in nats: sum_i T_i H(o_i) with T_i = prod_{j<i} (1 - o_j) (Eq. 11)."""
@@ -99,6 +100,11 @@ def _utility_reference(h, labels, targets, epsilon):
     return u_et + epsilon * u_er, u_et, u_er
 
 
+def _utility_only_reference(h_ray, labels, targets, epsilon):
+    return _utility_reference(h_ray, labels, targets, epsilon)[0]
+
+
+@compares_with(_utility_only_reference)
 def check_utility(utility, n_trials: int = 20, seed: int = 0) -> bool:
     """``utility(h_ray, labels, targets, epsilon)`` takes per-ray entropies ``(V, H, W)``, rendered class
     labels ``(V, H, W)`` (the argmax of S), a tuple of target ids and epsilon >= 0, and returns U ``(V,)``:
@@ -175,6 +181,7 @@ def _pick_cases(rng: np.random.Generator):
     return cases
 
 
+@compares_with(_best_reference)
 def check_pick_best(pick_best, seed: int = 0) -> bool:
     """``pick_best(candidates, values, visited, min_separation)`` takes candidate views ``(N, 2)`` and
     visited views ``(M, 2)`` as (elevation, azimuth) in radians, the candidates' utilities ``(N,)`` and an

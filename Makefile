@@ -9,7 +9,7 @@ SEED ?= 0
 OUT ?= runs/demo
 RUN_FLAGS ?= --overwrite
 
-.PHONY: setup demo test unit notebooks lab bench
+.PHONY: setup demo test unit notebooks lab bench student grade
 
 setup:
 	@bash scripts/setup.sh
@@ -28,6 +28,18 @@ notebooks: setup
 
 lab: setup
 	MPLBACKEND=module://matplotlib_inline.backend_inline .venv/bin/jupyter lab notebooks
+
+# The course edition (README, "Teaching with the notebooks"): the student release, and grading a folder of
+# submissions (SUBMISSIONS/<student>/<notebook>.ipynb) into a table of points.
+STUDENT ?= student
+SUBMISSIONS ?= submissions
+GRADES ?= grades.csv
+
+student: setup
+	$(PY) -m stair_lite.course student --out $(STUDENT)
+
+grade: setup
+	$(PY) -m stair_lite.course grade $(SUBMISSIONS) --out $(GRADES)
 
 bench: setup
 	$(PY) benchmarks/bench_world.py

@@ -263,16 +263,29 @@ def render_target_views(field, intrinsics: Intrinsics, poses: list[np.ndarray], 
 @torch.no_grad()
 def render_target_views_and_cut(field, intrinsics: Intrinsics, poses: list[np.ndarray], cfg: RenderConfig,
                                 targets: tuple[int, ...], skip: SkipGrid, z_min: float,
-                                colour_weight_threshold: float = 1e-5) -> tuple[list[np.ndarray], list[np.ndarray]]:
+                                colour_weight_threshold: float = 1e-5,
+                                rays_per_group: int = 2**20) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """``render_target_views`` with ``skip`` and with ``skip.above(z_min)``, from one evaluation of the
     field per sample: the second composite zeroes the samples whose nearest lattice vertex lies below
     ``z_min``, and colour is evaluated once where either composite's weight matters. Rays none of whose
     samples lies in a kept cell are white in both without further work (``rays_through``); the others of
-    all poses are rendered together, in chunks."""
+    a group of poses (about ``rays_per_group`` rays: the memory of one group) are rendered together, in chunks."""
+    group = max(1, rays_per_group // (intrinsics.height * intrinsics.width))
+    full, cut = [], []
+    for start in range(0, len(poses), group):
+        images = _render_group_and_cut(field, intrinsics, poses[start : start + group], cfg, targets, skip, z_min,
+                                       colour_weight_threshold)
+        full += images[0]
+        cut += images[1]
+    return full, cut
+
+
+def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, colour_weight_threshold):
     lattice, h, w = skip.lattice, intrinsics.height, intrinsics.width
-    rays = [pixel_rays(intrinsics, pose) for pose in poses]
-    origins = torch.as_tensor(np.concatenate([o for o, _ in rays]), dtype=torch.float32, device=field.device)
-    dirs = torch.as_tensor(np.concatenate([d for _, d in rays]), dtype=torch.float32, device=field.device)
+    rays = [[torch.as_tensor(a, dtype=torch.float32, device=field.device) for a in pixel_rays(intrinsics, pose)]
+            for pose in poses]
+    origins, dirs = torch.cat([o for o, _ in rays]), torch.cat([d for _, d in rays])
+    del rays
     live = rays_through(skip, origins, dirs, cfg)
     images = torch.ones(2, len(origins), 3, device=field.device)  # the full and the cut composite of every ray
     rows = live.nonzero().squeeze(1)
@@ -286,8 +299,7 @@ def render_target_views_and_cut(field, intrinsics: Intrinsics, poses: list[np.nd
         rgb = sample_appearance(field, samples, active.view(-1))[0].view(*occ.shape, 3)
         for image, wt in zip(images, weights):
             image[chunk] = (wt[..., None] * rgb).sum(dim=1) + (1.0 - wt.sum(dim=1))[:, None]
-    full, cut = (image.clamp(0, 1).view(len(poses), h, w, 3).cpu().numpy() for image in images)
-    return list(full), list(cut)
+    return [list(image.clamp(0, 1).view(len(poses), h, w, 3).cpu().numpy()) for image in images]
 
 
 def rays_through(skip: SkipGrid, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderConfig,

@@ -12,7 +12,7 @@ from stair_lite.explicit import ExplicitMap
 from stair_lite.lattice import CUBE_BOUND, Lattice
 from stair_lite.maps import ImplicitMap
 from stair_lite.scenes import load_scene
-from stair_lite.simulator import Simulator
+from stair_lite.simulator import Simulator, target_only_image
 
 
 def test_psnr_closed_form():
@@ -127,6 +127,17 @@ def test_clean_ground_truth_differs_only_where_other_objects_hide_a_target(tmp_p
     full = Evaluator(Simulator(load_scene("scene1")), spec.targets, preset)
     shown = lambda images: sum(int((g < 1).any(axis=-1).sum()) for g in images)
     assert shown(full.gt_alone_images) > shown(full.gt_images)
+
+
+def test_ground_truth_kept_at_eight_bits_is_the_rendered_image_exactly():
+    """The evaluator keeps its ground-truth images at 8 bits (the renderer's colour depth): nothing is lost."""
+    preset = small_eval_preset()
+    scene = load_scene("scene1")
+    sim = Simulator(scene)
+    evaluator = Evaluator(sim, scene.targets, preset)
+    for pose, stored in zip(evaluator.poses, evaluator.gt_images):
+        rendered = target_only_image(sim.render(pose, evaluator.intrinsics), scene.targets)
+        assert stored.dtype == np.float32 and np.array_equal(stored, rendered)
 
 
 def test_clean_psnr_of_an_empty_map_is_the_blank_render_psnr():

@@ -1,0 +1,94 @@
+"""The course edition: exercises as nbgrader cells, a student release without solutions, grading by points."""
+import json
+import re
+import shutil
+
+import nbformat
+
+from stair_lite import course
+from stair_lite.exercises import mine_or_reference
+from stair_lite.exercises.sensor import check_view_angle
+
+NOTEBOOKS = sorted(course.NOTEBOOK_DIR.glob("*.ipynb"))
+REGION = re.compile(r"### BEGIN SOLUTION\n(.*?)### END SOLUTION", re.S)
+
+
+def grading(cell) -> dict:
+    return cell.metadata.get("nbgrader", {})
+
+
+def test_every_exercise_is_a_solution_cell_followed_by_a_graded_check():
+    ids, exercises = [], 0
+    for path in NOTEBOOKS:
+        nb = nbformat.read(path, as_version=4)
+        assert not re.search(r"def \w+_solution\(", "".join(c.source for c in nb.cells)), path.name
+        for i, cell in enumerate(nb.cells):
+            g = grading(cell)
+            ids += [g["grade_id"]] if g else []
+            if g.get("solution"):
+                exercises += len(REGION.findall(cell.source))
+                assert REGION.search(cell.source), f"{path.name}: {g['grade_id']} has no solution region"
+                check = nb.cells[i + 1]
+                assert grading(check).get("grade") and grading(check)["points"] > 0, f"{path.name} {g['grade_id']}"
+                assert "check_" in check.source
+    assert exercises >= 16 and len(ids) == len(set(ids))  # 16 functions to write, one grade id each
+
+
+def test_the_student_release_holds_no_solution_code(tmp_path):
+    released = course.student_release(tmp_path / "student")
+    assert [p.name for p in released] == [p.name for p in NOTEBOOKS]
+    for source, release in zip(NOTEBOOKS, released):
+        text = release.read_text()
+        nb = nbformat.read(release, as_version=4)
+        cells = nbformat.read(source, as_version=4).cells
+        elsewhere = "".join(REGION.sub("", c.source) for c in cells)  # what the notebook shows outside solutions
+        for cell in cells:
+            for region in REGION.findall(cell.source):
+                for line in region.splitlines():
+                    if len(line.strip()) > 12 and line.strip() not in elsewhere:  # a line only a solution has
+                        assert json.dumps(line.strip())[1:-1] not in text, f"{release.name} shows: {line.strip()}"
+        solutions = [c for c in nb.cells if grading(c).get("solution")]
+        assert solutions and all("raise NotImplementedError()" in c.source for c in solutions)
+        assert all(not c.metadata.get("jupyter", {}).get("source_hidden") for c in solutions)
+        assert all(course.RUN_PAST in c.metadata.get("tags", []) for c in nb.cells if grading(c).get("grade"))
+        assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code")
+
+
+def test_a_failing_answer_falls_back_on_the_reference(capsys):
+    def view_angle(a, b):
+        return abs(a[0] - b[0]) + abs(a[1] - b[1])  # the flat-plane mistake
+
+    used = mine_or_reference(view_angle, check_view_angle)
+    assert used is check_view_angle.reference
+    assert "view_angle does not pass its check yet" in capsys.readouterr().out
+    assert mine_or_reference(check_view_angle.reference, check_view_angle) is check_view_angle.reference
+
+
+def test_grading_gives_full_points_to_the_solutions_and_fewer_to_a_wrong_answer(tmp_path):
+    """Notebook 01 (the quickest) graded three ways: the source (every answer right), one wrong answer, and the
+    untouched student release, which must still run to the end."""
+    source = NOTEBOOKS[0]
+    submissions = tmp_path / "submissions"
+    for student in ("solutions", "one_wrong", "untouched"):
+        (submissions / student).mkdir(parents=True)
+    shutil.copy(source, submissions / "solutions" / source.name)
+    nb = nbformat.read(source, as_version=4)
+    cell = next(c for c in nb.cells if grading(c).get("grade_id") == "01_pixel_to_ray")
+    assert "u + 0.5, v + 0.5" in cell.source
+    cell.source = cell.source.replace("u + 0.5, v + 0.5", "u, v")  # the pixel's corner, not its centre
+    nbformat.write(nb, submissions / "one_wrong" / source.name)
+    course.student_release(tmp_path / "release", [source])
+    shutil.copy(tmp_path / "release" / source.name, submissions / "untouched" / source.name)
+
+    grades = {g.student: g for g in course.grade(submissions, [source], keep=tmp_path / "executed")}
+    assert grades["solutions"].score == grades["solutions"].max_score == 3 and not grades["solutions"].failed
+    assert grades["one_wrong"].score == 2 and grades["one_wrong"].failed == ("01_pixel_to_ray_check",)
+    assert grades["untouched"].score == 0 and len(grades["untouched"].failed) == 3
+    executed = nbformat.read(tmp_path / "executed" / "untouched" / course.ASSIGNMENT / source.name, as_version=4)
+    errors = [c for c in executed.cells if any(o.get("output_type") == "error" for o in c.get("outputs", []))]
+    assert errors and all(grading(c).get("grade") for c in errors)  # only the checks fail; the rest ran
+    last_code = [c for c in executed.cells if c.cell_type == "code"][-1]
+    assert "closest test view" in "".join(o.get("text", "") for o in last_code.outputs)  # it ran, on the reference
+    table = tmp_path / "grades.csv"
+    course.write_table(list(grades.values()), table)
+    assert table.read_text().splitlines()[0] == "student,notebook,score,max_score,failed_checks"

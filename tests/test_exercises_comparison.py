@@ -36,6 +36,11 @@ def stub(a, b):
     raise NotImplementedError
 
 
+def paired_doubled_cdf(a, b):  # 2 * cdf(|t|): a number above 1
+    d = a - b
+    return 2 * stats.t.cdf(abs(d.mean() / (d.std(ddof=1) / np.sqrt(len(d)))), len(d) - 1)
+
+
 def test_a_correct_paired_test_passes():
     assert check_paired_p_value(paired_ok)
 
@@ -43,7 +48,8 @@ def test_a_correct_paired_test_passes():
 @pytest.mark.parametrize("wrong,hint", [(paired_welch, "unpaired"), (paired_student, "unpaired"),
                                         (paired_one_sided, "two-sided"), (paired_ddof0, "ddof=1"),
                                         (paired_normal, "normal distribution"), (stub, "NotImplementedError"),
-                                        (lambda a, b: 0.5, "expected")])
+                                        (lambda a, b: 0.5, "expected"),
+                                        (paired_doubled_cdf, "no probability")])
 def test_wrong_paired_tests_are_caught_with_a_hint(wrong, hint):
     with pytest.raises(AssertionError, match=hint):
         check_paired_p_value(wrong)

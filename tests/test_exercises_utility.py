@@ -51,6 +51,11 @@ def entropy_nan(occ):  # the textbook formula without care for 0 log 0
         return (_t_exclusive(occ) * -(occ * np.log(occ) + (1 - occ) * np.log(1 - occ))).sum(axis=1)
 
 
+def entropy_clipped(occ):  # the common guard against log(0): clip o away from 0 and 1
+    o = np.clip(occ, 1e-6, 1 - 1e-6)
+    return (_t_exclusive(occ) * -(o * np.log(o) + (1 - o) * np.log(1 - o))).sum(axis=1)
+
+
 def entropy_stub(occ):
     raise NotImplementedError
 
@@ -63,7 +68,8 @@ def test_ray_entropy_accepts_correct(ok):
 @pytest.mark.parametrize(
     "wrong, hint",
     [(entropy_unweighted, "without weighting"), (entropy_inclusive, "exclusive"), (entropy_bits, "bits"),
-     (entropy_weights, "rendering weight"), (entropy_nan, "NaN"), (entropy_stub, "NotImplementedError")],
+     (entropy_weights, "rendering weight"), (entropy_nan, "NaN"), (entropy_stub, "NotImplementedError"),
+     (entropy_clipped, "clipping")],
 )
 def test_ray_entropy_rejects_wrong(wrong, hint):
     with pytest.raises(AssertionError, match=hint):

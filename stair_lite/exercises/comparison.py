@@ -65,6 +65,10 @@ def check_paired_p_value(fn, n_random: int = 40, seed: int = 0) -> bool:
             got = float(got)
         except (TypeError, ValueError):
             raise AssertionError(f"paired_p_value should return one number, got {got!r}") from None
+        if not 0.0 <= got <= 1.0:
+            raise AssertionError(f"for a = {np.round(a, 3)}, b = {np.round(b, 3)}: got p = {got:.6g}, which is no "
+                                 "probability (a p-value lies in [0, 1]): return 2 * P(T > |t|), the tail beyond |t|, "
+                                 "not the statistic t or the cdf of a negative t doubled")
         variants = _paired_variants(a, b)
         if np.isclose(got, variants["right"], rtol=1e-6, atol=1e-12):
             continue

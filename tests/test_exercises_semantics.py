@@ -77,6 +77,10 @@ def target_in_place(occ, logits, targets):
     return occ
 
 
+def target_first_only(occ, logits, targets):  # as if there were one target class
+    return occ * (logits.argmax(axis=1) == targets[0])
+
+
 def target_none(occ, logits, targets):
     return None
 
@@ -93,6 +97,7 @@ def test_target_only_occupancy_accepts_correct():
         (target_threshold, "thresholded"),
         (target_in_place, "modified its inputs"),
         (target_none, "None"),
+        (target_first_only, "ANY of the targets"),
     ],
 )
 def test_target_only_occupancy_rejects_wrong(wrong, hint):

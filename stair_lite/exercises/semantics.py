@@ -120,6 +120,9 @@ def check_target_only_occupancy(target_only_occupancy, n_trials: int = 50, seed:
         elif _close(got, occ * (probs[:, list(targets)].sum(axis=1) > 0.5)) or _close(got, occ * (probs[:, list(targets)].max(axis=1) > 0.5)):
             hint = ("you thresholded the target probability at 0.5: the rule is the argmax class (with 7 classes a "
                     "target can win with less than half the probability)")
+        elif len(targets) > 1 and _close(got, occ * (label == targets[0])):
+            hint = ("you kept only the first target class: a sample stays if its class is ANY of the targets "
+                    "(np.isin(label, targets))")
         elif _close(got, occ * np.isin(logits[:, 1:].argmax(axis=1) + 1, targets)):
             hint = "take the argmax over all classes, background included"
         elif _close(got, occ * np.isin(label, targets) * probs[np.arange(n), label]):

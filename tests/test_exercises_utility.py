@@ -155,7 +155,7 @@ def test_pick_best_accepts_correct():
 
 @pytest.mark.parametrize(
     "wrong, hint",
-    [(pick_plain, "plain argmax"), (pick_flat, "flat plane"), (pick_degrees, "expected"),
+    [(pick_plain, "plain argmax"), (pick_flat, "flat plane"), (pick_degrees, "do not convert the angles to degrees"),
      (pick_argmin, "HIGHEST")],
 )
 def test_pick_best_rejects_wrong(wrong, hint):

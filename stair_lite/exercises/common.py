@@ -8,6 +8,17 @@ import io
 import numpy as np
 
 
+def diagnose(answers: list, variants: dict[str, list], hints: dict[str, str], fallback: str) -> str:
+    """The hint of the first plausible mistake that gives the learner's answer in EVERY case where that answer is
+    wrong (``variants[name][i]``: what mistake ``name`` answers in case i; ``variants["right"]`` the right ones), so
+    that one coincidence in one case cannot pick the hint; ``fallback`` when no single mistake explains them all."""
+    wrong = [i for i, (got, right) in enumerate(zip(answers, variants["right"])) if got != right]
+    for name, hint in hints.items():
+        if all(variants[name][i] == answers[i] for i in wrong):
+            return hint
+    return fallback
+
+
 def compares_with(reference):
     """Decorator for a checker: remember the independent computation it compares against (in the exercise's
     signature), so that ``mine_or_reference`` can stand it in for an answer that does not pass yet."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..planners import MIN_SEPARATION
-from .common import call as _call, compares_with
+from .common import call as _call, compares_with, diagnose
 
 # --------------------------------------------------------------------------------------------------
 # helpers
@@ -103,28 +103,28 @@ def check_max_distance_choice(max_distance_choice, n_random: int = 60, seed: int
     away from every visited view."""
     rng = np.random.default_rng(seed)
     cases = _max_distance_cases(rng, n_random)
+    answers = []
     for candidates, visited in cases:
         got = _call(max_distance_choice, candidates.copy(), visited.copy(), MIN_SEPARATION)
         if got is None:
             raise AssertionError("max_distance_choice returned None: fill in the function body (it still looks like the stub)")
         if np.ndim(got) != 0 or not float(got).is_integer():
             raise AssertionError(f"max_distance_choice must return one integer index into the candidates, got {got!r}")
-        got = int(got)
-        if not 0 <= got < len(candidates):
-            raise AssertionError(f"max_distance_choice returned index {got}, but there are {len(candidates)} candidates")
-        variants = _max_distance_variants(candidates, visited, MIN_SEPARATION)
-        want = variants.pop("right")
-        if got == want:
-            continue
-        too_close = _great_circle(candidates[got : got + 1], visited).min() <= MIN_SEPARATION
-        mistakes = [name for name, index in variants.items() if index == got]
-        if too_close:
+        if not 0 <= int(got) < len(candidates):
+            raise AssertionError(f"max_distance_choice returned index {int(got)}, but there are {len(candidates)} candidates")
+        answers.append(int(got))
+    per_case = [_max_distance_variants(candidates, visited, MIN_SEPARATION) for candidates, visited in cases]
+    variants = {name: [v[name] for v in per_case] for name in per_case[0]}
+    wrong = [i for i, (got, want) in enumerate(zip(answers, variants["right"])) if got != want]
+    if wrong:
+        i = wrong[0]
+        (candidates, visited), got, want = cases[i], answers[i], variants["right"][i]
+        if _great_circle(candidates[got : got + 1], visited).min() <= MIN_SEPARATION:
             hint = _MAX_DISTANCE_HINTS["no_exclusion"]
-        elif mistakes:
-            hint = _MAX_DISTANCE_HINTS[mistakes[0]]
         else:
-            hint = ("score = mean over visited views of |c - v|^2 between camera centres; take the best candidate "
-                    "among those more than min_separation from every visited view")
+            hint = diagnose(answers, variants, _MAX_DISTANCE_HINTS,
+                            "score = mean over visited views of |c - v|^2 between camera centres; take the best "
+                            "candidate among those more than min_separation from every visited view")
         raise AssertionError(
             f"max_distance_choice picked candidate {got} {np.round(candidates[got], 3)}, expected {want} "
             f"{np.round(candidates[want], 3)} (with {len(visited)} visited views)\nHint: {hint}")

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..classes import NUM_CLASSES
-from .common import as_array as _as_array, call as _call, compares_with
+from .common import as_array as _as_array, call as _call, compares_with, diagnose
 
 _ATOL = 1e-6
 
@@ -184,6 +184,24 @@ def _pick_cases(rng: np.random.Generator):
     return cases
 
 
+_PICK_HINTS = {
+    "flat": ("(elevation, azimuth) is not a flat plane (think of the top view and the azimuth seam): "
+             "compare unit direction vectors, angle = arccos(d_c . d_v)"),
+    "degrees": "the angles and min_separation are both in radians: do not convert the angles to degrees",
+    "argmax": "you took the plain argmax: candidates within min_separation of a visited view must be skipped",
+    "argmin": "the best candidate has the HIGHEST utility (argmax)",
+}
+
+
+def _pick_variants(candidates, values, visited, sep) -> dict[str, int]:
+    """The right choice and the choices of the mistakes in ``_PICK_HINTS``."""
+    angles = np.arccos(np.clip(_directions(candidates) @ _directions(visited).T, -1.0, 1.0)).min(axis=1)
+    flat = np.sqrt(((candidates[:, None, :] - visited[None, :, :]) ** 2).sum(-1)).min(axis=1)
+    best = lambda ok: int(np.argmax(np.where(ok, values, -np.inf)))
+    return {"right": best(angles > sep), "flat": best(flat > sep), "degrees": best(np.degrees(angles) > sep),
+            "argmax": int(np.argmax(values)), "argmin": int(np.argmin(np.where(angles > sep, values, np.inf)))}
+
+
 @compares_with(_best_reference)
 def check_pick_best(pick_best, seed: int = 0) -> bool:
     """``pick_best(candidates, values, visited, min_separation)`` takes candidate views ``(N, 2)`` and
@@ -192,30 +210,27 @@ def check_pick_best(pick_best, seed: int = 0) -> bool:
     every visited view exceeds ``min_separation``."""
     rng = np.random.default_rng(seed)
     cases = _pick_cases(rng)
+    answers = []
     for candidates, values, visited, sep in cases:
         got = _call(pick_best, candidates.copy(), values.copy(), visited.copy(), sep)
         if got is None:
             raise AssertionError("pick_best returned None: fill in the function body (it still looks like the stub)")
         try:
-            got = int(np.asarray(got).reshape(()))
+            answers.append(int(np.asarray(got).reshape(())))
         except (TypeError, ValueError):
             raise AssertionError(f"pick_best must return one integer index, got {got!r}") from None
-        want = _best_reference(candidates, values, visited, sep)
-        if got == want:
-            continue
-        flat = np.sqrt(((candidates[:, None, :] - visited[None, :, :]) ** 2).sum(-1)).min(axis=1) > sep
-        flat_choice = int(np.argmax(np.where(flat, values, -np.inf)))
-        if got == flat_choice and flat_choice != int(np.argmax(values)):
-            hint = ("(elevation, azimuth) is not a flat plane (think of the top view and the azimuth seam): "
-                    "compare unit direction vectors, angle = arccos(d_c . d_v)")
-        elif got == int(np.argmax(values)):
-            hint = "you took the plain argmax: candidates within min_separation of a visited view must be skipped"
-        elif got == int(np.argmin(values)):
-            hint = "the best candidate has the HIGHEST utility (argmax)"
-        elif 0 <= got < len(values) and not (np.arccos(np.clip(_directions(candidates[got:got + 1]) @ _directions(visited).T, -1, 1)) > sep).all():
-            hint = "your choice lies within min_separation of a visited view"
-        else:
-            hint = "keep the candidates whose smallest angle to the visited views exceeds min_separation, then argmax"
+    per_case = [_pick_variants(*case) for case in cases]
+    variants = {name: [v[name] for v in per_case] for name in per_case[0]}
+    wrong = [i for i, (got, want) in enumerate(zip(answers, variants["right"])) if got != want]
+    if wrong:
+        i = wrong[0]
+        candidates, values, visited, sep = cases[i]
+        got, want = answers[i], variants["right"][i]
+        too_close = 0 <= got < len(values) and not (
+            np.arccos(np.clip(_directions(candidates[got:got + 1]) @ _directions(visited).T, -1, 1)) > sep).all()
+        fallback = ("your choice lies within min_separation of a visited view" if too_close else
+                    "keep the candidates whose smallest angle to the visited views exceeds min_separation, then argmax")
+        hint = diagnose(answers, variants, _PICK_HINTS, fallback)
         raise AssertionError(f"pick_best returned {got}, expected {want} (candidates\n{np.round(candidates, 3)}\n"
                              f"values {np.round(values, 3)}, visited {np.round(visited, 3).tolist()}, "
                              f"min_separation {sep:.4f} rad)\nHint: {hint}")

@@ -31,6 +31,11 @@ CELL_TIMEOUT_S = 600  # as the notebook tests (nbval's cell timeout)
 RUN_PAST = "raises-exception"  # the cell tag with which Run All goes on past an error (Jupyter, nbclient)
 
 
+def _notebooks(notebooks) -> list[Path]:
+    """The given notebooks, or all of the course's."""
+    return sorted(NOTEBOOK_DIR.glob("*.ipynb")) if notebooks is None else [Path(n) for n in notebooks]
+
+
 def _api(root: Path):
     """nbgrader's API on a course folder ``root`` with its own gradebook."""
     from nbgrader.apps import NbGraderAPI
@@ -75,7 +80,7 @@ def _prepare_for_students(path: Path) -> None:
 
 def student_release(out: str | Path, notebooks: list[Path] | None = None) -> list[Path]:
     """Write the student edition of the notebooks into ``out``: no solution code, no outputs. Returns the files."""
-    notebooks = sorted(NOTEBOOK_DIR.glob("*.ipynb")) if notebooks is None else [Path(n) for n in notebooks]
+    notebooks = _notebooks(notebooks)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="stair_course_") as tmp:
@@ -105,7 +110,7 @@ def grade(submissions: str | Path, notebooks: list[Path] | None = None, keep: st
     the graded cells restored from the source). ``keep``: a folder for the executed submissions."""
     from nbgrader.api import MissingEntry
 
-    notebooks = sorted(NOTEBOOK_DIR.glob("*.ipynb")) if notebooks is None else [Path(n) for n in notebooks]
+    notebooks = _notebooks(notebooks)
     submissions = Path(submissions)
     students = sorted(p for p in submissions.iterdir() if p.is_dir()) if submissions.is_dir() else []
     if not students:

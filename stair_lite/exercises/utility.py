@@ -155,9 +155,7 @@ def _directions(views: np.ndarray) -> np.ndarray:
 
 
 def _best_reference(candidates, values, visited, min_separation):
-    cos = np.clip(_directions(candidates) @ _directions(visited).T, -1.0, 1.0)
-    ok = np.arccos(cos).min(axis=1) > min_separation
-    return int(np.argmax(np.where(ok, values, -np.inf)))
+    return _pick_variants(candidates, values, visited, min_separation)["right"]
 
 
 def _pick_cases(rng: np.random.Generator):

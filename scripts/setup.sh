@@ -6,6 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 APT_PACKAGES="libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri"
+[ "${STAIR_BROWSER:-0}" = "1" ] && APT_PACKAGES="$APT_PACKAGES chromium"  # the book's browser check (make test)
 missing=""
 for pkg in $APT_PACKAGES; do
   dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing="$missing $pkg"
@@ -17,7 +18,7 @@ if [ -n "$missing" ]; then
     apt-get update -qq
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $missing >/dev/null
   else
-    echo "[setup] missing system packages for offscreen rendering:$missing" >&2
+    echo "[setup] missing system packages (offscreen rendering; chromium for the book check):$missing" >&2
     echo "[setup] install them as root, then run make again:" >&2
     echo "    sudo apt-get install -y --no-install-recommends $APT_PACKAGES python3-venv" >&2
     exit 1

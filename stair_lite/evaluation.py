@@ -21,6 +21,7 @@ import trimesh
 from scipy.spatial import cKDTree
 from skimage.measure import marching_cubes
 
+from .allocator import release_freed_memory
 from .classes import BACKGROUND
 from .config import Preset
 from .geometry import Intrinsics, test_views, view_to_pose
@@ -28,6 +29,7 @@ from .lattice import Lattice, xyz
 from .simulator import Simulator, target_only_image
 
 GROUND_CUT_Z = -0.05  # the ground's top is z = 0; nothing below it is observable, so metrics ignore it
+QUERY_CHUNK = 262144  # lattice points queried at once when a volume is evaluated
 
 
 def f1_column(threshold: float) -> str:
@@ -56,10 +58,13 @@ def occupancy_volume(field, resolution: int, targets=None, z_min: float | None =
     first = lattice.first_layer(z_min) if z_min is not None else 0
     points = lattice.points(field.device, z_min=z_min)
     evaluate = skip.lookup(points) if skip is not None else torch.ones(len(points), dtype=torch.bool, device=field.device)
-    q = field.query(points[evaluate])
-    label = q["sem"].argmax(dim=1)
-    keep = label != BACKGROUND if targets is None else torch.isin(label, torch.as_tensor(targets, device=label.device))
-    occ = torch.zeros(len(points), device=field.device).masked_scatter(evaluate, q["occ"] * keep)
+    occ = torch.zeros(len(points), device=field.device)
+    wanted = None if targets is None else torch.as_tensor(targets, device=field.device)
+    for part in torch.split(evaluate.nonzero().squeeze(1), QUERY_CHUNK):  # in chunks: 256^3 x 7 probabilities is 0.5 GB
+        q = field.query(points[part])
+        label = q["sem"].argmax(dim=1)
+        keep = label != BACKGROUND if wanted is None else torch.isin(label, wanted)
+        occ[part] = q["occ"] * keep
     volume = np.zeros((resolution,) * 3, np.float32)  # indexed [z, y, x], the lattice's flat order
     volume[first:] = occ.view(resolution - first, resolution, resolution).cpu().numpy()
     return xyz(volume), lattice
@@ -171,6 +176,8 @@ class Evaluator:
         psnrs = [psnr(r, g) for r, g in zip(renders, self.gt_images)]
         psnr_clean = float(np.mean([psnr(cut[i], self.gt_alone_images[i]) for i in self.views_with_targets]))
         t_render = time.perf_counter() - start
+        del renders, cut
+        release_freed_memory()  # the renders' working memory, before the mesh's (allocator.py)
         mesh = reconstruction.target_mesh(self.targets)
         scores = mesh_scores_from_points(sample_surface(mesh, cfg.mesh_points, self.seed + 1), self.gt_tree,
                                          self.gt_points, cfg.f1_threshold, cfg.more_f1_thresholds)

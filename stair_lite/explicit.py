@@ -9,6 +9,8 @@ target-only colour renders come from the map, so STE is scored with the same met
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import torch
 from scipy.ndimage import distance_transform_edt
@@ -25,6 +27,27 @@ from .training import Losses
 
 def logit(p: float) -> float:
     return float(np.log(p / (1.0 - p)))
+
+
+class Scan(NamedTuple):
+    """The voxels one measurement updates (flat indices): ``crossed`` and ``hit`` once each (a voxel may be in
+    both); per ray end point inside the grid, its voxel, class and colour."""
+
+    crossed: torch.Tensor
+    hit: torch.Tensor
+    end_voxels: torch.Tensor
+    end_labels: torch.Tensor
+    end_colours: torch.Tensor
+
+
+def octomap_update(log_odds: torch.Tensor, crossed: torch.Tensor, hit: torch.Tensor, l_hit: float, l_miss: float,
+                   l_min: float, l_max: float) -> None:
+    """OctoMap's update of one scan, in place [hornung2013octomap]: every voxel a ray crossed adds ``l_miss``,
+    every voxel a ray ended in adds ``l_hit``, each voxel at most once per scan and a voxel both crossed and hit
+    counting as hit; log-odds stay within [l_min, l_max] so that a voxel can still change its mind."""
+    free = crossed[~torch.isin(crossed, hit)]
+    log_odds[free] = (log_odds[free] + l_miss).clamp(l_min, l_max)
+    log_odds[hit] = (log_odds[hit] + l_hit).clamp(l_min, l_max)
 
 
 class ExplicitMap(ReconstructionMap):
@@ -74,8 +97,8 @@ class ExplicitMap(ReconstructionMap):
         return index, valid
 
     # ------------------------------------------------------------------ mapping
-    def add_measurement(self, m: Measurement) -> None:
-        """Fuse one measurement: free space along every ray, occupied and labelled at its end point."""
+    def scan_voxels(self, m: Measurement) -> Scan:
+        """The voxels one measurement updates: those its rays cross and those its rays end in, each once."""
         s = self.cfg.pixel_stride
         origins, dirs = pixel_rays(m.intrinsics, m.pose)
         keep = np.zeros((m.intrinsics.height, m.intrinsics.width), dtype=bool)
@@ -90,16 +113,18 @@ class ExplicitMap(ReconstructionMap):
         t_end = torch.where(hit, depth, torch.full_like(depth, float("inf")))[rays]
         index, valid = self._march(origins[rays], dirs[rays], t_end)
         end_index, end_inside = self.voxel_index(origins[hit] + depth[hit, None] * dirs[hit])
-        occupied = torch.unique(end_index[end_inside])
-        free = torch.unique(index[valid])
-        free = free[~torch.isin(free, occupied)]  # a voxel both crossed and hit in one scan counts as hit
-        self.log_odds[free] = (self.log_odds[free] + self.l_miss).clamp(self.l_min, self.l_max)
-        self.log_odds[occupied] = (self.log_odds[occupied] + self.l_hit).clamp(self.l_min, self.l_max)
-        self.observed[free] = True
-        self.observed[occupied] = True
-        idx = end_index[end_inside]
-        self.class_counts.index_put_((idx, labels[hit][end_inside]), torch.ones(len(idx), device=self.device), accumulate=True)
-        self.colour_sum.index_add_(0, idx, rgb[hit][end_inside])
+        return Scan(torch.unique(index[valid]), torch.unique(end_index[end_inside]), end_index[end_inside],
+                    labels[hit][end_inside], rgb[hit][end_inside])
+
+    def add_measurement(self, m: Measurement) -> None:
+        """Fuse one measurement: free space along every ray, occupied and labelled at its end point."""
+        scan = self.scan_voxels(m)
+        octomap_update(self.log_odds, scan.crossed, scan.hit, self.l_hit, self.l_miss, self.l_min, self.l_max)
+        self.observed[scan.crossed] = True
+        self.observed[scan.hit] = True
+        ones = torch.ones(len(scan.end_voxels), device=self.device)
+        self.class_counts.index_put_((scan.end_voxels, scan.end_labels), ones, accumulate=True)
+        self.colour_sum.index_add_(0, scan.end_voxels, scan.end_colours)
 
     def update(self) -> list[Losses]:
         """Nothing to learn: a measurement is fused as it is added."""

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from .allocator import release_freed_memory
 from .classes import CLASS_NAMES
 from .config import Preset, check_device, get_preset
 from .evaluation import Evaluator, f1_column
@@ -189,6 +190,7 @@ class Mission:
             decision = self.planner.next_view(source, np.array(self.visited), self.targets)
             view = decision.view
         t_plan = time.perf_counter() - start
+        release_freed_memory()  # between phases (allocator.py): the peak is the largest phase's, not their sum
         start = time.perf_counter()
         pose = view_to_pose(*view)
         measurement = self.simulator.render(pose)
@@ -196,7 +198,9 @@ class Mission:
         start = time.perf_counter()
         history = [loss for m in self.maps.values() for loss in m.integrate(measurement)]
         t_train = time.perf_counter() - start
+        release_freed_memory()
         result = self.evaluator.evaluate(self.map)
+        release_freed_memory()
         self.visited.append(np.asarray(view, dtype=float))
         record = {
             "step": number,

@@ -23,3 +23,10 @@ def setup(seed: int = 0) -> np.random.Generator:
         f"numpy {np.__version__} | matplotlib {matplotlib.__version__}"
     )
     return np.random.default_rng(seed)
+
+
+def measured_floor(name: str, value: float, floor: float, measured: float) -> None:
+    """A check against a floor set below a measured value (lite preset, seed 0, this repository's CPU), not a
+    property: it catches a change that makes ``value`` fall well short of what was ``measured``."""
+    print(f"measured-value check: {name} = {value:.4g} >= {floor:g} (floor set from the measured {measured:g})")
+    assert value >= floor, f"{name} = {value:.4g} fell below its floor {floor:g} (measured {measured:g}): something changed"

@@ -1,9 +1,11 @@
-"""The checker of notebook 06's exercise accepts a correct answer and rejects plausible wrong ones."""
+"""The checkers of notebook 06's exercises accept a correct answer and reject plausible wrong ones."""
 import numpy as np
 import pytest
+import torch
 from scipy import stats
 
-from stair_lite.exercises.comparison import check_paired_p_value
+from stair_lite.exercises.comparison import check_octomap_update, check_paired_p_value
+from stair_lite.explicit import octomap_update
 
 
 def paired_ok(a, b):
@@ -53,3 +55,81 @@ def test_a_correct_paired_test_passes():
 def test_wrong_paired_tests_are_caught_with_a_hint(wrong, hint):
     with pytest.raises(AssertionError, match=hint):
         check_paired_p_value(wrong)
+
+
+# ---------------------------------------------------------------------------------------- the OctoMap update
+def octomap_ok(log_odds, crossed, hit, l_hit, l_miss, l_min, l_max):
+    free = np.setdiff1d(crossed, hit)
+    log_odds[free] = np.clip(log_odds[free] + l_miss, l_min, l_max)
+    hit = np.unique(hit)
+    log_odds[hit] = np.clip(log_odds[hit] + l_hit, l_min, l_max)
+    return log_odds
+
+
+def octomap_add_at(log_odds, crossed, hit, l_hit, l_miss, l_min, l_max):  # every ray counts
+    free = crossed[~np.isin(crossed, hit)]
+    np.add.at(log_odds, free, l_miss)
+    np.add.at(log_odds, hit, l_hit)
+    return np.clip(log_odds, l_min, l_max)
+
+
+def octomap_both(log_odds, crossed, hit, l_hit, l_miss, l_min, l_max):  # crossed-and-hit voxels also freed
+    crossed, hit = np.unique(crossed), np.unique(hit)
+    log_odds[crossed] = np.clip(log_odds[crossed] + l_miss, l_min, l_max)
+    log_odds[hit] = np.clip(log_odds[hit] + l_hit, l_min, l_max)
+    return log_odds
+
+
+def octomap_no_clamp(log_odds, crossed, hit, l_hit, l_miss, l_min, l_max):
+    log_odds[np.setdiff1d(crossed, hit)] += l_miss
+    log_odds[np.unique(hit)] += l_hit
+    return log_odds
+
+
+def octomap_subtract_miss(log_odds, crossed, hit, l_hit, l_miss, l_min, l_max):
+    free = np.setdiff1d(crossed, hit)
+    log_odds[free] = np.clip(log_odds[free] - l_miss, l_min, l_max)
+    log_odds[np.unique(hit)] = np.clip(log_odds[np.unique(hit)] + l_hit, l_min, l_max)
+    return log_odds
+
+
+def octomap_overwrite(log_odds, crossed, hit, l_hit, l_miss, l_min, l_max):
+    log_odds[np.setdiff1d(crossed, hit)] = l_miss
+    log_odds[np.unique(hit)] = l_hit
+    return log_odds
+
+
+def octomap_probability(log_odds, crossed, hit, l_hit, l_miss, l_min, l_max):  # probabilities, not log-odds
+    p = 1 / (1 + np.exp(-log_odds))
+    p[np.setdiff1d(crossed, hit)] *= 0.4
+    p[np.unique(hit)] *= 0.7
+    return np.log(p / (1 - p))
+
+
+def octomap_stub(*args):
+    raise NotImplementedError
+
+
+def test_a_correct_octomap_update_passes():
+    assert check_octomap_update(octomap_ok)
+
+
+@pytest.mark.parametrize("wrong,hint", [(octomap_add_at, "at most once per scan"), (octomap_both, "counts as hit only"),
+                                        (octomap_no_clamp, "clamp"), (octomap_subtract_miss, "already negative"),
+                                        (octomap_overwrite, r"\+="), (octomap_probability, "expected"),
+                                        (lambda *args: None, "None"), (octomap_stub, "NotImplementedError")])
+def test_wrong_octomap_updates_are_caught_with_a_hint(wrong, hint):
+    with pytest.raises(AssertionError, match=hint):
+        check_octomap_update(wrong)
+
+
+def test_the_library_update_is_the_checked_one():
+    """explicit.octomap_update (torch, in place) agrees with the checker's voxel-by-voxel reference."""
+    rng = np.random.default_rng(3)
+    model = dict(l_hit=np.log(0.7 / 0.3), l_miss=np.log(0.4 / 0.6), l_min=np.log(0.12 / 0.88), l_max=np.log(0.97 / 0.03))
+    for _ in range(20):
+        log_odds = rng.uniform(model["l_min"], model["l_max"], 12)
+        crossed, hit = np.unique(rng.integers(0, 12, 10)), np.unique(rng.integers(0, 12, 4))
+        mine = torch.as_tensor(log_odds.copy())
+        octomap_update(mine, torch.as_tensor(crossed), torch.as_tensor(hit), **model)
+        assert np.allclose(mine.numpy(), check_octomap_update.reference(log_odds, crossed, hit, **model))

@@ -1,17 +1,20 @@
-"""Checkers for the exercise of notebook 06 (comparing planners over seeds).
+"""Checkers for the exercises of notebook 06 (comparing planners over seeds; STE's voxel map).
 
 ``check_paired_p_value`` calls the learner's function on seeded random pairs of samples (plus a few built to
 expose one mistake each), compares it with the paired t-test computed here from its formula, and raises
 ``AssertionError`` with a hint when they differ: an unpaired test (Welch's or Student's), the population
 standard deviation (ddof=0), a one-sided p-value and normal instead of t tails each get named.
-On success it prints one line and returns ``True``.
+``check_octomap_update`` compares the learner's log-odds update of one scan with one computed voxel by voxel
+here, naming five mistakes: repeated indices counted more than once, a voxel both crossed and hit updated as
+free too, no clamping, the miss's sign, and overwriting instead of adding. On success each prints one line and
+returns ``True``.
 """
 from __future__ import annotations
 
 import numpy as np
 from scipy.stats import norm, t
 
-from .common import call as _call, compares_with
+from .common import as_array as _as_array, call as _call, compares_with
 
 
 def _paired_variants(a: np.ndarray, b: np.ndarray) -> dict[str, float]:
@@ -78,4 +81,76 @@ def check_paired_p_value(fn, n_random: int = 40, seed: int = 0) -> bool:
         raise AssertionError(f"for a = {np.round(a, 3)}, b = {np.round(b, 3)}: got p = {got:.6g}, expected "
                              f"{variants['right']:.6g}")
     print(f"paired_p_value: correct on {len(cases)} pairs of per-seed scores")
+    return True
+
+
+# ---------------------------------------------------------------------------------------- the OctoMap update
+def _octomap_variants(log_odds, crossed, hit, l_hit, l_miss, l_min, l_max) -> dict[str, np.ndarray]:
+    """The right update of one scan, computed voxel by voxel, and what a few plausible mistakes give."""
+    clamp = lambda x: min(max(x, l_min), l_max)  # noqa: E731
+    hits, crossings = set(hit.tolist()), set(crossed.tolist())
+
+    def update(free_voxels, hit_voxels, do_clamp=True, miss=l_miss, overwrite=False):
+        out = np.array(log_odds, dtype=float)
+        for voxels, step in ((free_voxels, miss), (hit_voxels, l_hit)):
+            for v in voxels:
+                value = step if overwrite else out[v] + step
+                out[v] = clamp(value) if do_clamp else value
+        return out
+
+    return {
+        "right": update(sorted(crossings - hits), sorted(hits)),
+        "repeats": update([v for v in crossed.tolist() if v not in hits], hit.tolist()),  # each index as often as given
+        "crossed_and_hit": update(sorted(crossings), sorted(hits)),
+        "no_clamp": update(sorted(crossings - hits), sorted(hits), do_clamp=False),
+        "miss_sign": update(sorted(crossings - hits), sorted(hits), miss=-l_miss),
+        "overwrite": update(sorted(crossings - hits), sorted(hits), overwrite=True),
+    }
+
+
+_OCTOMAP_HINTS = {
+    "repeats": "a voxel changes at most once per scan, however many of its rays cross or end in it: take the "
+               "unique voxel indices (np.unique) before adding",
+    "crossed_and_hit": "a voxel that one ray crosses and another ray ends in, in the same scan, counts as hit only: "
+                       "leave the hit voxels out of the free update",
+    "no_clamp": "clamp the log-odds to [l_min, l_max] after adding (np.clip), so that a voxel can still change its mind",
+    "miss_sign": "l_miss = logit(0.4) is already negative: add it, as l_hit, do not subtract it",
+    "overwrite": "add the evidence to the stored log-odds (+=): independent measurements add up in log-odds",
+}
+_OCTOMAP_MODEL = dict(l_hit=float(np.log(0.7 / 0.3)), l_miss=float(np.log(0.4 / 0.6)),
+                      l_min=float(np.log(0.12 / 0.88)), l_max=float(np.log(0.97 / 0.03)))
+
+
+def _octomap_reference(log_odds, crossed, hit, l_hit, l_miss, l_min, l_max):
+    return _octomap_variants(np.asarray(log_odds, dtype=float), np.asarray(crossed), np.asarray(hit),
+                             l_hit, l_miss, l_min, l_max)["right"]
+
+
+@compares_with(_octomap_reference)
+def check_octomap_update(fn, n_random: int = 30, seed: int = 0) -> bool:
+    """Check ``fn(log_odds, crossed, hit, l_hit, l_miss, l_min, l_max)`` -> the voxel map's log-odds after one scan:
+    ``crossed`` and ``hit`` are integer voxel indices (repeats allowed: many rays per voxel), with STE's sensor
+    model (hit 0.7, miss 0.4, clamps 0.12 and 0.97)."""
+    rng = np.random.default_rng(seed)
+    m = _OCTOMAP_MODEL
+    n = 12
+    cases = [(np.zeros(n), np.array([0, 1, 1, 2, 2, 2]), np.array([3, 3])),            # repeats, nothing shared
+             (np.zeros(n), np.array([0, 1, 2, 3]), np.array([3, 4])),                   # voxel 3 crossed and hit
+             (np.full(n, m["l_max"] - 0.1), np.array([5]), np.array([0, 1, 2])),          # hits at the upper clamp
+             (np.full(n, m["l_min"] + 0.1), np.array([0, 1, 2]), np.array([6]))]          # misses at the lower clamp
+    for _ in range(n_random):
+        cases.append((rng.uniform(m["l_min"], m["l_max"], n) * (rng.random(n) < 0.7),
+                      rng.integers(0, n, int(rng.integers(1, 15))), rng.integers(0, n, int(rng.integers(1, 6)))))
+    for log_odds, crossed, hit in cases:
+        got = _call(fn, log_odds.copy(), crossed.copy(), hit.copy(), m["l_hit"], m["l_miss"], m["l_min"], m["l_max"])
+        got = _as_array(got, log_odds.shape, "octomap_update")
+        variants = _octomap_variants(log_odds, crossed, hit, **m)
+        if np.allclose(got, variants["right"], atol=1e-9):
+            continue
+        where = f"for log_odds {np.round(log_odds, 2)}, crossed {crossed.tolist()}, hit {hit.tolist()}"
+        for name, value in variants.items():
+            if name != "right" and np.allclose(got, value, atol=1e-9):
+                raise AssertionError(f"{where}: {_OCTOMAP_HINTS[name]}")
+        raise AssertionError(f"{where}: got {np.round(got, 3)}, expected {np.round(variants['right'], 3)}")
+    print(f"octomap_update: correct on {len(cases)} scans")
     return True

@@ -1,3 +1,0 @@
-import os
-
-os.environ.setdefault("PYOPENGL_PLATFORM", "egl")

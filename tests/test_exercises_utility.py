@@ -3,11 +3,13 @@ import numpy as np
 import pytest
 import torch
 
-from stair_lite.exercises.utility import check_pick_best, check_ray_entropy, check_utility
-from stair_lite.geometry import angular_distance
-from stair_lite.planners import far_enough
+from stair_lite.config import get_preset
+from stair_lite.exercises.utility import check_ray_entropy, check_two_stage_search, check_utility
+from stair_lite.field import SemanticField
+from stair_lite.geometry import TOP_VIEW, fibonacci_hemisphere, local_views
+from stair_lite.planners import far_enough, make_planner
 from stair_lite.rendering import compositing_weights
-from stair_lite.utility import point_entropy
+from stair_lite.utility import FieldSnapshot, point_entropy, score_views
 
 
 # ---- exercise 1: the entropy of a ray -----------------------------------------------------------
@@ -125,39 +127,91 @@ def test_utility_rejects_wrong(wrong, hint):
         check_utility(wrong)
 
 
-# ---- exercise 3: the best allowed candidate -----------------------------------------------------
-def pick_ok(candidates, values, visited, sep):
-    return int(np.argmax(np.where(far_enough(candidates, visited, sep), values, -np.inf)))
+# ---- exercise 3: the two-stage search -------------------------------------------------------------
+def _search(score, visited, azimuth_offset, resample, n_uniform, top_k, centres_of, best_of="all", skip_visited=True):
+    uniform = fibonacci_hemisphere(n_uniform, azimuth_offset=azimuth_offset)
+    first = score(uniform)
+    resampled = np.concatenate([resample(uniform[i]) for i in centres_of(first, far_enough(uniform, visited), top_k)])
+    candidates = np.concatenate([uniform, resampled])
+    values = score(candidates)
+    ok = far_enough(candidates, visited) if skip_visited else np.ones(len(candidates), bool)
+    if best_of == "second":
+        ok[:n_uniform] = False
+    return candidates, values, int(np.argmax(np.where(ok, values, -np.inf)))
 
 
-def pick_plain(candidates, values, visited, sep):
-    return int(np.argmax(values))
+def top_allowed(first, allowed, k):
+    return [i for i in np.argsort(-first) if allowed[i]][:k]
 
 
-def pick_flat(candidates, values, visited, sep):
-    d = np.sqrt(((candidates[:, None] - visited[None]) ** 2).sum(-1)).min(axis=1)
-    return int(np.argmax(np.where(d > sep, values, -np.inf)))
+def search_ok(*args):
+    return _search(*args, centres_of=top_allowed)
 
 
-def pick_degrees(candidates, values, visited, sep):  # compares radians with a limit it thinks is in degrees
-    d = np.degrees(angular_distance(candidates, visited)).min(axis=1)
-    return int(np.argmax(np.where(d > sep, values, -np.inf)))
+def search_reversed_draws(score, visited, azimuth_offset, resample, n_uniform, top_k):  # same search, other order
+    candidates, values, best = search_ok(score, visited, azimuth_offset, resample, n_uniform, top_k)
+    order = np.arange(len(values))[::-1]
+    return candidates[order], values[order], int(np.flatnonzero(order == best)[0])
 
 
-def pick_argmin(candidates, values, visited, sep):
-    ok = far_enough(candidates, visited, sep)
-    return int(np.argmin(np.where(ok, values, np.inf)))
+def search_top_of_all(*args):
+    return _search(*args, centres_of=lambda first, allowed, k: list(np.argsort(-first)[:k]))
 
 
-def test_pick_best_accepts_correct():
-    assert check_pick_best(pick_ok)
+def search_lowest(*args):
+    return _search(*args, centres_of=lambda first, allowed, k: [i for i in np.argsort(first) if allowed[i]][:k])
+
+
+def search_second_only(*args):
+    return _search(*args, centres_of=top_allowed, best_of="second")
+
+
+def search_visited_allowed(*args):
+    return _search(*args, centres_of=top_allowed, skip_visited=False)
+
+
+def search_drawn_worst_first(*args):  # the right views, resampled in ascending order
+    return _search(*args, centres_of=lambda first, allowed, k: top_allowed(first, allowed, k)[::-1])
+
+
+def search_first_stage_only(score, visited, azimuth_offset, resample, n_uniform, top_k):
+    uniform = fibonacci_hemisphere(n_uniform, azimuth_offset=azimuth_offset)
+    values = score(uniform)
+    return uniform, values, int(np.argmax(np.where(far_enough(uniform, visited), values, -np.inf)))
+
+
+def search_unturned(score, visited, azimuth_offset, resample, n_uniform, top_k):  # forgets the azimuth offset
+    return search_ok(score, visited, 0.0, resample, n_uniform, top_k)
+
+
+def test_two_stage_search_accepts_correct():
+    assert check_two_stage_search(search_ok)
+    assert check_two_stage_search(search_reversed_draws)
 
 
 @pytest.mark.parametrize(
     "wrong, hint",
-    [(pick_plain, "plain argmax"), (pick_flat, "flat plane"), (pick_degrees, "do not convert the angles to degrees"),
-     (pick_argmin, "HIGHEST")],
+    [(search_top_of_all, "ALLOWED"), (search_lowest, "HIGHEST"), (search_second_only, "first stage's included"),
+     (search_visited_allowed, "far_enough from every visited view"), (search_first_stage_only, "shape"),
+     (search_unturned, "azimuth_offset"), (search_drawn_worst_first, "best first")],
 )
-def test_pick_best_rejects_wrong(wrong, hint):
+def test_two_stage_search_rejects_wrong(wrong, hint):
     with pytest.raises(AssertionError, match=hint):
-        check_pick_best(wrong)
+        check_two_stage_search(wrong)
+
+
+def test_two_stage_search_reference_is_the_planners_search():
+    """The checker's reference, fed the planner's random draws, makes STAIR's choice (planners.UtilityPlanner)."""
+    preset = get_preset("smoke")
+    field = SemanticField(preset.field, seed=0)
+    planner = make_planner("stair", preset, seed=5)
+    visited = np.array([TOP_VIEW])
+    decision = planner.next_view(field, visited, (1,))
+    rng = np.random.default_rng(5)
+    snapshot, cfg = FieldSnapshot(field), preset.plan
+    score = lambda views: score_views(snapshot, views, (1,), planner.intrinsics, cfg.candidate_samples,  # noqa: E731
+                                      planner.options).utility
+    resample = lambda view: local_views(view, cfg.n_resample, rng, *cfg.resample_angle)  # noqa: E731
+    candidates, _, best = check_two_stage_search.reference(score, visited, rng.uniform(0, 2 * np.pi), resample,
+                                                            cfg.n_uniform, cfg.top_k)
+    assert np.array_equal(candidates, decision.candidates) and best == decision.chosen_index

@@ -1,10 +1,10 @@
-"""Checkers for the exercises of notebook 04 (entropy along rays, the semantic-targeted utility, picking a view).
+"""Checkers for the exercises of notebook 04 (entropy along rays, the semantic-targeted utility, the two-stage search).
 
 Each ``check_*`` takes the learner's function, calls it on several seeded random inputs, compares
 the answers with an independent computation written here in plain numpy, and raises
 ``AssertionError`` with a hint when they differ. Where a wrong answer matches a common mistake
 (an un-weighted entropy sum, inclusive transmittance, bits instead of nats, a convex mix of the two
-scores, ignoring the visited views, ...) the hint names that mistake. On success a checker prints
+scores, resampling around views that can never be chosen, ...) the hint names that mistake. On success a checker prints
 one line and returns ``True``.
 """
 from __future__ import annotations
@@ -12,7 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..classes import NUM_CLASSES
-from .common import as_array as _as_array, call as _call, compares_with, diagnose
+from ..geometry import TOP_VIEW, angular_distance, fibonacci_hemisphere
+from ..planners import far_enough
+from .common import as_array as _as_array, call as _call, compares_with
 
 _ATOL = 1e-6
 
@@ -147,90 +149,118 @@ def check_utility(utility, n_trials: int = 20, seed: int = 0) -> bool:
 
 
 # --------------------------------------------------------------------------------------------------
-# Exercise 3: the best candidate that is not too close to a visited view
+# Exercise 3: the two-stage candidate search (Sec. III-C)
 # --------------------------------------------------------------------------------------------------
-def _directions(views: np.ndarray) -> np.ndarray:
-    el, az = views[:, 0], views[:, 1]
-    return np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=1)
+def _search_variants(score, visited, azimuth_offset, resample, n_uniform, top_k) -> dict[str, tuple]:
+    """(sorted candidates, best view) of the right search and of the mistakes in ``_SEARCH_HINTS``."""
+    uniform = fibonacci_hemisphere(n_uniform, azimuth_offset=azimuth_offset)
+    first = np.asarray(score(uniform), dtype=float)
+    allowed = far_enough(uniform, visited)
+    by_value = np.argsort(-first, kind="stable")
+
+    def search(centres, best_among_uniform=True, skip_visited=True):
+        resampled = np.concatenate([resample(uniform[i]) for i in centres]) if len(centres) else np.zeros((0, 2))
+        candidates = np.concatenate([uniform, resampled]) if best_among_uniform else resampled
+        values = np.asarray(score(candidates), dtype=float)
+        ok = far_enough(candidates, visited) if skip_visited else np.ones(len(candidates), bool)
+        return _sorted_views(np.concatenate([uniform, resampled])), candidates[int(np.argmax(np.where(ok, values, -np.inf)))]
+
+    return {"right": search([i for i in by_value if allowed[i]][:top_k]),
+            "top_k_of_all": search(list(by_value[:top_k])),
+            "lowest": search([i for i in by_value[::-1] if allowed[i]][:top_k]),
+            "second_stage_only": search([i for i in by_value if allowed[i]][:top_k], best_among_uniform=False),
+            "visited_allowed": search([i for i in by_value if allowed[i]][:top_k], skip_visited=False)}
 
 
-def _best_reference(candidates, values, visited, min_separation):
-    return _pick_variants(candidates, values, visited, min_separation)["right"]
+def _sorted_views(views: np.ndarray) -> np.ndarray:
+    """Views in a canonical order (rows sorted), so that two searches compare whatever order they drew in."""
+    views = np.round(np.asarray(views, dtype=float), 9)
+    return views[np.lexsort(views.T[::-1])] if len(views) else views
 
 
-def _pick_cases(rng: np.random.Generator):
-    """Hand-made traps first (top view and azimuth seam), then random sets where the best view is visited."""
-    sep = float(np.arccos(1.0 - 0.01))
-    cases = []
-    # near the top view: azimuths far apart, great-circle angle tiny -> must be rejected
-    cases.append((np.array([[np.pi / 2, 0.0], [1.52, 3.0], [0.5, 0.4], [1.0, 2.0]]), np.array([10.0, 9.0, 5.0, 4.0]),
-                  np.array([[np.pi / 2, 0.0]]), sep))
-    # across the azimuth seam: (0.3, 0.02) and (0.3, 2 pi - 0.02) are almost the same view
-    cases.append((np.array([[0.3, 2 * np.pi - 0.02], [0.8, 1.0], [0.2, 4.0]]), np.array([7.0, 6.0, 1.0]),
-                  np.array([[np.pi / 2, 0.0], [0.3, 0.02]]), sep))
-    # a candidate at an elevation/azimuth distance above the limit in radians but below it on the sphere
-    cases.append((np.array([[1.4, 1.5], [1.4, 1.0], [0.6, 3.0]]), np.array([4.0, 3.0, 2.0]), np.array([[1.4, 1.5]]), 0.2))
-    for _ in range(30):
-        n, m = int(rng.integers(5, 40)), int(rng.integers(1, 5))
-        visited = np.c_[rng.uniform(0, np.pi / 2, m), rng.uniform(0, 2 * np.pi, m)]
-        candidates = np.c_[rng.uniform(0, np.pi / 2, n), rng.uniform(0, 2 * np.pi, n)]
-        candidates[: m] = visited + rng.normal(0, 0.03, size=(m, 2))  # candidates right next to visited views
-        candidates[:, 0] = np.clip(candidates[:, 0], 0.0, np.pi / 2)
-        values = rng.uniform(0, 1, n)
-        values[: m] += 1.0  # ... which have the highest values
-        cases.append((candidates, values, visited, float(rng.choice([sep, 0.1, 0.3]))))
-    return cases
-
-
-_PICK_HINTS = {
-    "flat": ("(elevation, azimuth) is not a flat plane (think of the top view and the azimuth seam): "
-             "compare unit direction vectors, angle = arccos(d_c . d_v)"),
-    "degrees": "the angles and min_separation are both in radians: do not convert the angles to degrees",
-    "argmax": "you took the plain argmax: candidates within min_separation of a visited view must be skipped",
-    "argmin": "the best candidate has the HIGHEST utility (argmax)",
+_SEARCH_HINTS = {
+    "top_k_of_all": "resample around the top K of the ALLOWED first-stage views (far_enough): a view next to a "
+                    "visited one can never be chosen, so its neighbourhood wastes the second stage",
+    "lowest": "the top K are the K HIGHEST utilities of the first stage (sort descending)",
+    "second_stage_only": "choose the best of ALL candidates, the first stage's included: a first-stage view can win",
+    "visited_allowed": "the chosen view must be far_enough from every visited view, in both stages",
 }
 
 
-def _pick_variants(candidates, values, visited, sep) -> dict[str, int]:
-    """The right choice and the choices of the mistakes in ``_PICK_HINTS``."""
-    angles = np.arccos(np.clip(_directions(candidates) @ _directions(visited).T, -1.0, 1.0)).min(axis=1)
-    flat = np.sqrt(((candidates[:, None, :] - visited[None, :, :]) ** 2).sum(-1)).min(axis=1)
-    best = lambda ok: int(np.argmax(np.where(ok, values, -np.inf)))
-    return {"right": best(angles > sep), "flat": best(flat > sep), "degrees": best(np.degrees(angles) > sep),
-            "argmax": int(np.argmax(values)), "argmin": int(np.argmin(np.where(angles > sep, values, np.inf)))}
+def _search_cases(rng: np.random.Generator):
+    """Smooth synthetic utilities with two peaks; the top view visited, and in every other case also the best
+    first-stage view (so that the top K must skip it); in some, the best view of all is a first-stage one."""
+    cases = []
+    for k in range(8):
+        offset, n_uniform = float(rng.uniform(0, 2 * np.pi)), int(rng.choice([20, 40]))
+        uniform = fibonacci_hemisphere(n_uniform, azimuth_offset=offset)
+        peaks = np.c_[rng.uniform(0.1, 1.4, 2), rng.uniform(0, 2 * np.pi, 2)]
+        if k % 4 == 0:  # the highest peak exactly on a first-stage view: its resampled neighbours are all lower
+            peaks[0] = uniform[rng.choice(np.flatnonzero(uniform[:, 0] < 1.3))]
+        weights = np.array([1.0, rng.uniform(0.3, 0.9)])
+        score = (lambda peaks, weights: lambda views: (
+            np.exp(4 * np.cos(angular_distance(np.asarray(views), peaks))) @ weights))(peaks, weights)
+        offsets = np.array([[0.15, 0.0], [-0.15, 0.0], [0.0, 0.3], [0.0, -0.3]]) * (1 + 0.2 * (k % 3))
+
+        def resample(view, offsets=offsets):  # deterministic neighbours: whatever order they are drawn in
+            out = np.asarray(view, dtype=float)[None] + offsets
+            out[:, 0] = np.clip(out[:, 0], 0.02, np.pi / 2)
+            return out
+
+        visited = np.array([TOP_VIEW, uniform[np.argmax(score(uniform))]]) if k % 2 else np.array([TOP_VIEW])
+        cases.append((score, visited, offset, resample, n_uniform, int(rng.choice([3, 5]))))
+    return cases
 
 
-@compares_with(_best_reference)
-def check_pick_best(pick_best, seed: int = 0) -> bool:
-    """``pick_best(candidates, values, visited, min_separation)`` takes candidate views ``(N, 2)`` and
-    visited views ``(M, 2)`` as (elevation, azimuth) in radians, the candidates' utilities ``(N,)`` and an
-    angle in radians; it returns the index of the highest-valued candidate whose great-circle angle to
-    every visited view exceeds ``min_separation``."""
+def _search_reference(score, visited, azimuth_offset, resample, n_uniform, top_k):
+    uniform = fibonacci_hemisphere(n_uniform, azimuth_offset=azimuth_offset)
+    first = np.asarray(score(uniform), dtype=float)
+    allowed = far_enough(uniform, visited)
+    centres = [i for i in np.argsort(-first, kind="stable") if allowed[i]][:top_k]
+    candidates = np.concatenate([uniform, *(resample(uniform[i]) for i in centres)])
+    values = np.asarray(score(candidates), dtype=float)
+    return candidates, values, int(np.argmax(np.where(far_enough(candidates, visited), values, -np.inf)))
+
+
+@compares_with(_search_reference)
+def check_two_stage_search(fn, seed: int = 0) -> bool:
+    """``fn(score, visited, azimuth_offset, resample, n_uniform, top_k)`` -> ``(candidates, values, best)``: the
+    ``n_uniform`` Fibonacci views turned by ``azimuth_offset`` and the views ``resample(view)`` returns around each of
+    the ``top_k`` best allowed ones; ``score(views)`` of all of them; the index of the best allowed candidate."""
     rng = np.random.default_rng(seed)
-    cases = _pick_cases(rng)
-    answers = []
-    for candidates, values, visited, sep in cases:
-        got = _call(pick_best, candidates.copy(), values.copy(), visited.copy(), sep)
-        if got is None:
-            raise AssertionError("pick_best returned None: fill in the function body (it still looks like the stub)")
-        try:
-            answers.append(int(np.asarray(got).reshape(())))
-        except (TypeError, ValueError):
-            raise AssertionError(f"pick_best must return one integer index, got {got!r}") from None
-    per_case = [_pick_variants(*case) for case in cases]
-    variants = {name: [v[name] for v in per_case] for name in per_case[0]}
-    wrong = [i for i, (got, want) in enumerate(zip(answers, variants["right"])) if got != want]
-    if wrong:
-        i = wrong[0]
-        candidates, values, visited, sep = cases[i]
-        got, want = answers[i], variants["right"][i]
-        too_close = 0 <= got < len(values) and not (
-            np.arccos(np.clip(_directions(candidates[got:got + 1]) @ _directions(visited).T, -1, 1)) > sep).all()
-        fallback = ("your choice lies within min_separation of a visited view" if too_close else
-                    "keep the candidates whose smallest angle to the visited views exceeds min_separation, then argmax")
-        hint = diagnose(answers, variants, _PICK_HINTS, fallback)
-        raise AssertionError(f"pick_best returned {got}, expected {want} (candidates\n{np.round(candidates, 3)}\n"
-                             f"values {np.round(values, 3)}, visited {np.round(visited, 3).tolist()}, "
-                             f"min_separation {sep:.4f} rad)\nHint: {hint}")
-    print(f"check_pick_best: {len(cases)} candidate sets agree (top view and azimuth seam included)")
+    for score, visited, offset, resample, n_uniform, top_k in _search_cases(rng):
+        centres = []  # the views fn resamples around, in the order it asks
+
+        def recording(view, resample=resample):
+            centres.append(np.asarray(view, dtype=float))
+            return resample(view)
+
+        got = _call(fn, score, visited.copy(), offset, recording, n_uniform, top_k)
+        if not isinstance(got, tuple) or len(got) != 3:
+            raise AssertionError(f"two_stage_search must return (candidates, values, best), got {type(got).__name__}")
+        candidates, values, best = got
+        n = n_uniform + top_k * len(resample(visited[0]))
+        candidates = _as_array(candidates, (n, 2), "two_stage_search's candidates (N_uni + K x N_re views)")
+        values = _as_array(values, (n,), "two_stage_search's values")
+        if not _close(values, score(candidates)):
+            raise AssertionError("values[i] must be score(candidates)[i]: score both stages' candidates")
+        best_view = candidates[int(best)]
+        variants = _search_variants(score, visited, offset, resample, n_uniform, top_k)
+        right_set, right_best = variants["right"]
+        if np.array_equal(_sorted_views(candidates), right_set) and _close(best_view, right_best):
+            uniform = fibonacci_hemisphere(n_uniform, azimuth_offset=offset)
+            first, allowed = np.asarray(score(uniform), dtype=float), far_enough(uniform, visited)
+            in_order = uniform[[i for i in np.argsort(-first, kind="stable") if allowed[i]][:top_k]]
+            if not _close(np.array(centres), in_order):
+                raise AssertionError("two_stage_search resamples around the right views, but in another order: call "
+                                     "resample on the top K best first (descending utility), as the planner draws")
+            continue
+        where = f"(n_uniform {n_uniform}, top_k {top_k}, visited {np.round(visited, 3).tolist()})"
+        for name, (views, chosen) in variants.items():
+            if name != "right" and np.array_equal(_sorted_views(candidates), views) and _close(best_view, chosen):
+                raise AssertionError(f"two_stage_search {where}: {_SEARCH_HINTS[name]}")
+        raise AssertionError(f"two_stage_search {where}: chose {np.round(best_view, 3)}, expected "
+                             f"{np.round(right_best, 3)}; the first stage is fibonacci_hemisphere(n_uniform, "
+                             "azimuth_offset=...), the second resample(view) around each of the top K allowed views")
+    print("check_two_stage_search: 8 searches agree (candidates of both stages and the chosen view)")
     return True

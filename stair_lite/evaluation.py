@@ -172,11 +172,14 @@ class Evaluator:
         """Score a map (any ``maps.ReconstructionMap``): both target-only PSNRs and the target mesh."""
         cfg = self.preset.eval
         start = time.perf_counter()
-        renders, cut = reconstruction.target_only_renders(self.intrinsics, self.poses, self.targets, z_min=GROUND_CUT_Z)
-        psnrs = [psnr(r, g) for r, g in zip(renders, self.gt_images)]
-        psnr_clean = float(np.mean([psnr(cut[i], self.gt_alone_images[i]) for i in self.views_with_targets]))
+        psnrs, psnrs_clean = [], []
+        renders = reconstruction.target_only_renders(self.intrinsics, self.poses, self.targets, z_min=GROUND_CUT_Z)
+        for i, (render, cut) in enumerate(renders):  # one view at a time: the renders are not kept
+            psnrs.append(psnr(render, self.gt_images[i]))
+            if i in self.views_with_targets:
+                psnrs_clean.append(psnr(cut, self.gt_alone_images[i]))
+        psnr_clean = float(np.mean(psnrs_clean))
         t_render = time.perf_counter() - start
-        del renders, cut
         release_freed_memory()  # the renders' working memory, before the mesh's (allocator.py)
         mesh = reconstruction.target_mesh(self.targets)
         scores = mesh_scores_from_points(sample_surface(mesh, cfg.mesh_points, self.seed + 1), self.gt_tree,

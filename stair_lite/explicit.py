@@ -176,8 +176,9 @@ class ExplicitMap(ReconstructionMap):
     def target_only_renders(self, intrinsics, poses, targets, z_min):
         """First-hit renders; the same images twice: the map holds only voxels it has seen occupied, so
         there is no unobserved volume under the ground to cut."""
-        renders = [self.render_target_only(intrinsics, p, targets) for p in poses]
-        return renders, renders
+        for pose in poses:
+            render = self.render_target_only(intrinsics, pose, targets)
+            yield render, render
 
     @property
     def planning_source(self) -> "ExplicitMap":

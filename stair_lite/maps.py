@@ -9,6 +9,7 @@ measurements again and then loading that state.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -44,9 +45,9 @@ class ReconstructionMap(ABC):
 
     @abstractmethod
     def target_only_renders(self, intrinsics: Intrinsics, poses: list[np.ndarray], targets: tuple[int, ...],
-                            z_min: float) -> tuple[list[np.ndarray], list[np.ndarray]]:
-        """Target-only colour renders at each pose (paper Sec. IV-A): as the paper defines them, and with
-        nothing below height ``z_min`` (the unobservable volume under the ground)."""
+                            z_min: float) -> Iterable[tuple[np.ndarray, np.ndarray]]:
+        """Two target-only colour renders per pose, in the order of ``poses`` (paper Sec. IV-A): as the paper
+        defines them, and with nothing below height ``z_min`` (the unobservable volume under the ground)."""
 
     @abstractmethod
     def target_mesh(self, targets: tuple[int, ...]):

@@ -89,7 +89,7 @@ def test_skipping_empty_space_matches_the_exact_render():
         assert psnr(f, gt) == pytest.approx(psnr(e, gt), abs=0.05)
     from stair_lite.evaluation import GROUND_CUT_Z
     skip = build_skip_grid(field, scene.targets)
-    both = implicit.target_only_renders(evaluator.intrinsics, evaluator.poses, scene.targets, GROUND_CUT_Z)
+    both = list(zip(*implicit.target_only_renders(evaluator.intrinsics, evaluator.poses, scene.targets, GROUND_CUT_Z)))
     separate = (fast, render_target_views(field, *views, skip=skip.above(GROUND_CUT_Z)))  # one render each
     for combined, alone in zip(both, separate):
         for a, b in zip(combined, alone):

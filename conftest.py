@@ -12,7 +12,7 @@ import nbformat
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 EXECUTED_DIR = Path(os.environ.get("STAIR_EXECUTED_DIR", Path(__file__).parent / "build" / "executed"))
-_passed: dict = {}  # nbval's notebook node -> [its cells collected, its cells passed]
+_passed: dict = {}  # nbval's notebook node -> [its cells collected, its cells passed]; written when all passed
 
 
 def pytest_collection_modifyitems(session, config, items):
@@ -26,14 +26,14 @@ def pytest_collection_modifyitems(session, config, items):
 def pytest_runtest_makereport(item, call):
     if call.when == "call" and hasattr(item, "test_outputs") and call.excinfo is None:
         item.cell.outputs = item.test_outputs or []
-        _passed[item.parent][1] += 1
+        counts = _passed[item.parent]
+        counts[1] += 1
+        if counts[0] == counts[1] == sum(cell.cell_type == "code" for cell in item.parent.nb.cells):
+            EXECUTED_DIR.mkdir(parents=True, exist_ok=True)  # every cell ran and passed: keep this run's copy
+            nbformat.write(item.parent.nb, EXECUTED_DIR / Path(str(item.fspath)).name)
 
 
-def pytest_sessionfinish(session):
-    for node, (collected, passed) in _passed.items():
-        executed = EXECUTED_DIR / Path(str(node.fspath)).name
-        if passed == collected == sum(cell.cell_type == "code" for cell in node.nb.cells):  # every cell ran and passed
-            EXECUTED_DIR.mkdir(parents=True, exist_ok=True)
-            nbformat.write(node.nb, executed)
-        else:
-            executed.unlink(missing_ok=True)  # never a copy of an older run beside a failed or partial one
+def pytest_collection_finish(session):
+    """No copy of an older run beside the notebooks this session runs (a failed one would leave it there)."""
+    for node in _passed:
+        (EXECUTED_DIR / Path(str(node.fspath)).name).unlink(missing_ok=True)

@@ -11,6 +11,7 @@ The book adds a page per ``stair_lite`` module with its source, links every ment
 from __future__ import annotations
 
 import argparse
+import functools
 import re
 import shutil
 import subprocess
@@ -41,9 +42,10 @@ def chapters() -> list[Path]:
     return sorted(NOTEBOOK_DIR.glob("[0-9][0-9]_*.ipynb"))
 
 
-def modules() -> list[Path]:
-    """The package's modules (subpackages included), as paths relative to the package."""
-    return sorted(p.relative_to(PACKAGE_DIR) for p in PACKAGE_DIR.rglob("*.py") if p.name != "__init__.py")
+@functools.cache
+def modules() -> tuple[Path, ...]:
+    """The package's modules (subpackages included), as paths relative to the package (read once)."""
+    return tuple(sorted(p.relative_to(PACKAGE_DIR) for p in PACKAGE_DIR.rglob("*.py") if p.name != "__init__.py"))
 
 
 def source_page(module: Path) -> str:

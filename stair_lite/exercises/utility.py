@@ -151,6 +151,12 @@ def check_utility(utility, n_trials: int = 20, seed: int = 0) -> bool:
 # --------------------------------------------------------------------------------------------------
 # Exercise 3: the two-stage candidate search (Sec. III-C)
 # --------------------------------------------------------------------------------------------------
+def _best_allowed_first(uniform, score, visited, top_k) -> list[int]:
+    """The indices of the ``top_k`` best first-stage views that are far enough from the visited ones, best first."""
+    first, allowed = np.asarray(score(uniform), dtype=float), far_enough(uniform, visited)
+    return [i for i in np.argsort(-first, kind="stable") if allowed[i]][:top_k]
+
+
 def _search_variants(score, visited, azimuth_offset, resample, n_uniform, top_k) -> dict[str, tuple]:
     """(sorted candidates, best view) of the right search and of the mistakes in ``_SEARCH_HINTS``."""
     uniform = fibonacci_hemisphere(n_uniform, azimuth_offset=azimuth_offset)
@@ -165,11 +171,12 @@ def _search_variants(score, visited, azimuth_offset, resample, n_uniform, top_k)
         ok = far_enough(candidates, visited) if skip_visited else np.ones(len(candidates), bool)
         return _sorted_views(np.concatenate([uniform, resampled])), candidates[int(np.argmax(np.where(ok, values, -np.inf)))]
 
-    return {"right": search([i for i in by_value if allowed[i]][:top_k]),
+    right = _best_allowed_first(uniform, score, visited, top_k)
+    return {"right": search(right),
             "top_k_of_all": search(list(by_value[:top_k])),
             "lowest": search([i for i in by_value[::-1] if allowed[i]][:top_k]),
-            "second_stage_only": search([i for i in by_value if allowed[i]][:top_k], best_among_uniform=False),
-            "visited_allowed": search([i for i in by_value if allowed[i]][:top_k], skip_visited=False)}
+            "second_stage_only": search(right, best_among_uniform=False),
+            "visited_allowed": search(right, skip_visited=False)}
 
 
 def _sorted_views(views: np.ndarray) -> np.ndarray:
@@ -214,9 +221,7 @@ def _search_cases(rng: np.random.Generator):
 
 def _search_reference(score, visited, azimuth_offset, resample, n_uniform, top_k):
     uniform = fibonacci_hemisphere(n_uniform, azimuth_offset=azimuth_offset)
-    first = np.asarray(score(uniform), dtype=float)
-    allowed = far_enough(uniform, visited)
-    centres = [i for i in np.argsort(-first, kind="stable") if allowed[i]][:top_k]
+    centres = _best_allowed_first(uniform, score, visited, top_k)
     candidates = np.concatenate([uniform, *(resample(uniform[i]) for i in centres)])
     values = np.asarray(score(candidates), dtype=float)
     return candidates, values, int(np.argmax(np.where(far_enough(candidates, visited), values, -np.inf)))
@@ -249,8 +254,7 @@ def check_two_stage_search(fn, seed: int = 0) -> bool:
         right_set, right_best = variants["right"]
         if np.array_equal(_sorted_views(candidates), right_set) and _close(best_view, right_best):
             uniform = fibonacci_hemisphere(n_uniform, azimuth_offset=offset)
-            first, allowed = np.asarray(score(uniform), dtype=float), far_enough(uniform, visited)
-            in_order = uniform[[i for i in np.argsort(-first, kind="stable") if allowed[i]][:top_k]]
+            in_order = uniform[_best_allowed_first(uniform, score, visited, top_k)]
             if not _close(np.array(centres), in_order):
                 raise AssertionError("two_stage_search resamples around the right views, but in another order: call "
                                      "resample on the top K best first (descending utility), as the planner draws")

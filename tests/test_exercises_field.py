@@ -3,8 +3,9 @@ import numpy as np
 import pytest
 import torch
 
-from stair_lite.exercises.field import check_composite, check_trilinear_corners, check_transmittance_and_weights
-from stair_lite.field import corner_indices_and_weights
+from stair_lite.exercises.field import (check_batch_loss, check_composite, check_training_step,
+                                       check_transmittance_and_weights)
+from stair_lite.training import LOG_CLAMP, loss_terms
 from stair_lite.rendering import compositing_weights
 
 
@@ -63,70 +64,6 @@ def test_transmittance_rejects_wrong(wrong, hint):
         check_transmittance_and_weights(wrong)
 
 
-# ---- exercise 2: corners and trilinear weights --------------------------------------------------
-def corners_ok(point, bound, r):
-    p = (point + bound) / (2 * bound) * (r - 1)
-    i0 = np.clip(np.floor(p), 0, r - 2).astype(int)
-    f = p - i0
-    offsets = np.array(list(np.ndindex(2, 2, 2)))
-    return i0 + offsets, np.prod(np.where(offsets == 1, f, 1 - f), axis=1)
-
-
-def corners_stair_lite(point, bound, r):
-    index, weights = corner_indices_and_weights(torch.as_tensor(point / bound, dtype=torch.float64)[None], r)
-    rows = index[0].numpy()
-    return np.stack([rows % r, (rows // r) % r, rows // (r * r)], axis=1), weights[0].numpy()
-
-
-def corners_cell_centred(point, bound, r):
-    p = (point + bound) / (2 * bound) * r - 0.5
-    i0 = np.clip(np.floor(p), 0, r - 2).astype(int)
-    f = np.clip(p - i0, 0.0, 1.0)
-    offsets = np.array(list(np.ndindex(2, 2, 2)))
-    return i0 + offsets, np.prod(np.where(offsets == 1, f, 1 - f), axis=1)
-
-
-def corners_swapped_weights(point, bound, r):
-    corners, _ = corners_ok(point, bound, r)
-    p = (point + bound) / (2 * bound) * (r - 1)
-    f = p - np.clip(np.floor(p), 0, r - 2)
-    offsets = corners - corners.min(axis=0)
-    return corners, np.prod(np.where(offsets == 1, 1 - f, f), axis=1)
-
-
-def corners_no_clamp(point, bound, r):
-    p = (point + bound) / (2 * bound) * (r - 1)
-    i0 = np.floor(p).astype(int)
-    f = p - i0
-    offsets = np.array(list(np.ndindex(2, 2, 2)))
-    return i0 + offsets, np.prod(np.where(offsets == 1, f, 1 - f), axis=1)
-
-
-def corners_zyx(point, bound, r):
-    corners, w = corners_ok(point, bound, r)
-    return corners[:, ::-1], w
-
-
-def test_corners_accepts_correct():
-    assert check_trilinear_corners(corners_ok)
-    assert check_trilinear_corners(corners_stair_lite)
-
-
-@pytest.mark.parametrize(
-    "wrong, hint",
-    [
-        (corners_cell_centred, "ON the cube's corners"),
-        (corners_swapped_weights, "swapped"),
-        (corners_no_clamp, "upper face"),
-        (corners_zyx, "axes are reversed"),
-    ],
-)
-def test_corners_rejects_wrong(wrong, hint):
-    with pytest.raises(AssertionError, match=hint):
-        check_trilinear_corners(wrong)
-
-
-# ---- exercise 3: compositing colour and depth ---------------------------------------------------
 def composite_ok(weights, t, colours):
     acc = weights.sum(axis=1)
     return (weights[..., None] * colours).sum(axis=1) + (1 - acc)[:, None], (weights * t).sum(axis=1)
@@ -173,7 +110,147 @@ def stub_raising(*args):
     raise NotImplementedError
 
 
-@pytest.mark.parametrize("checker", [check_transmittance_and_weights, check_trilinear_corners, check_composite])
+@pytest.mark.parametrize("checker", [check_transmittance_and_weights, check_composite, check_batch_loss, check_training_step])
 def test_checkers_explain_an_untouched_stub(checker):
     with pytest.raises(AssertionError, match="NotImplementedError"):
         checker(stub_raising)
+
+
+# ---- exercise 3: the loss of a batch and one training step -------------------------------------
+def loss_ok(rendered, measured, lambdas, log_clamp):
+    l_rgb = ((rendered["rgb"] - measured["rgb"]) ** 2).sum(dim=1).mean()
+    l_depth = (rendered["depth"] - measured["depth"]).abs().mean()
+    picked = rendered["sem"][torch.arange(len(measured["labels"])), measured["labels"]]
+    return lambdas[0] * l_rgb + lambdas[1] * l_depth + lambdas[2] * -torch.log(picked.clamp(min=log_clamp)).mean()
+
+
+def loss_stair_lite(rendered, measured, lambdas, log_clamp):
+    class Weights:
+        lambda_rgb, lambda_depth, lambda_sem = lambdas
+    assert log_clamp == LOG_CLAMP
+    return loss_terms(rendered, measured, Weights)[0]
+
+
+def loss_channel_mean(rendered, measured, lambdas, log_clamp):
+    l_rgb = ((rendered["rgb"] - measured["rgb"]) ** 2).mean()
+    return loss_ok(rendered, measured, lambdas, log_clamp) + lambdas[0] * (
+        l_rgb - ((rendered["rgb"] - measured["rgb"]) ** 2).sum(dim=1).mean())
+
+
+def loss_norm(rendered, measured, lambdas, log_clamp):
+    d = rendered["rgb"] - measured["rgb"]
+    return loss_ok(rendered, measured, lambdas, log_clamp) + lambdas[0] * (
+        torch.sqrt((d ** 2).sum(dim=1)).mean() - (d ** 2).sum(dim=1).mean())
+
+
+def loss_depth_squared(rendered, measured, lambdas, log_clamp):
+    d = rendered["depth"] - measured["depth"]
+    return loss_ok(rendered, measured, lambdas, log_clamp) + lambdas[1] * ((d ** 2).mean() - d.abs().mean())
+
+
+def loss_hit_only(rendered, measured, lambdas, log_clamp):
+    d = (rendered["depth"] - measured["depth"]).abs()
+    hit = measured["depth"] > 0
+    return loss_ok(rendered, measured, lambdas, log_clamp) + lambdas[1] * (d[hit].mean() - d.mean())
+
+
+def loss_sum(rendered, measured, lambdas, log_clamp):
+    return loss_ok(rendered, measured, lambdas, log_clamp) * len(measured["labels"])
+
+
+def loss_no_clamp(rendered, measured, lambdas, log_clamp):
+    return loss_ok(rendered, measured, lambdas, 0.0)
+
+
+def loss_lambdas_reversed(rendered, measured, lambdas, log_clamp):
+    return loss_ok(rendered, measured, lambdas[::-1], log_clamp)
+
+
+def loss_detached(rendered, measured, lambdas, log_clamp):
+    return torch.tensor(float(loss_ok(rendered, measured, lambdas, log_clamp).detach()))
+
+
+def test_batch_loss_accepts_correct():
+    assert check_batch_loss(loss_ok)
+    assert check_batch_loss(loss_stair_lite)
+
+
+@pytest.mark.parametrize(
+    "wrong, hint",
+    [
+        (loss_channel_mean, "sums the squared error over the 3 channels"),
+        (loss_norm, "SQUARED error"),
+        (loss_depth_squared, "ABSOLUTE error"),
+        (loss_hit_only, "teach free space"),
+        (loss_sum, "MEAN over the batch"),
+        (loss_no_clamp, "clamp the probability"),
+        (loss_lambdas_reversed, "in that order"),
+        (loss_detached, "gradients do not flow"),
+    ],
+)
+def test_batch_loss_rejects_wrong(wrong, hint):
+    with pytest.raises(AssertionError, match=hint):
+        check_batch_loss(wrong)
+
+
+def step_ok(model, optimizer, render, loss_fn, batch):
+    loss = loss_fn(render(model, batch), batch)
+    optimizer.zero_grad()
+    loss.backward()
+    optimizer.step()
+    return loss.item()
+
+
+def step_no_zero_grad(model, optimizer, render, loss_fn, batch):
+    loss = loss_fn(render(model, batch), batch)
+    loss.backward()
+    optimizer.step()
+    return loss.item()
+
+
+def step_zero_grad_before_step(model, optimizer, render, loss_fn, batch):
+    loss = loss_fn(render(model, batch), batch)
+    loss.backward()
+    optimizer.zero_grad()
+    optimizer.step()
+    return loss.item()
+
+
+def step_no_step(model, optimizer, render, loss_fn, batch):
+    loss = loss_fn(render(model, batch), batch)
+    optimizer.zero_grad()
+    loss.backward()
+    return loss.item()
+
+
+def step_returns_tensor(model, optimizer, render, loss_fn, batch):
+    loss = loss_fn(render(model, batch), batch)
+    optimizer.zero_grad()
+    loss.backward()
+    optimizer.step()
+    return loss
+
+
+def step_loss_after(model, optimizer, render, loss_fn, batch):
+    step_ok(model, optimizer, render, loss_fn, batch)
+    with torch.no_grad():
+        return float(loss_fn(render(model, batch), batch))
+
+
+def test_training_step_accepts_correct():
+    assert check_training_step(step_ok)
+
+
+@pytest.mark.parametrize(
+    "wrong, hint",
+    [
+        (step_no_zero_grad, "ADD UP"),
+        (step_zero_grad_before_step, "did not change"),
+        (step_no_step, "did not change"),
+        (step_returns_tensor, "Python float"),
+        (step_loss_after, "BEFORE the optimiser step"),
+    ],
+)
+def test_training_step_rejects_wrong(wrong, hint):
+    with pytest.raises(AssertionError, match=hint):
+        check_training_step(wrong)

@@ -3,15 +3,15 @@
 Each ``check_*`` takes the learner's function, calls it on seeded random inputs (and a few hand-picked
 edge cases), compares the answers with an independent computation written here in plain numpy, and
 raises ``AssertionError`` with a hint when they differ. Where a wrong answer matches a common mistake
-(an inclusive instead of exclusive product, cell-centred instead of corner-aligned vertices, a missing
-white background, ...) the hint names that mistake. On success a checker prints one line and returns ``True``.
+(an inclusive instead of exclusive product, a missing white background, a loss summed instead of
+averaged, gradients left to add up across steps, ...) the hint names that mistake. On success a checker prints one line and returns ``True``.
 """
 from __future__ import annotations
 
 import numpy as np
+import torch
 
-from ..lattice import CUBE_BOUND
-from .common import as_array as _as_array, call as _call, compares_with
+from .common import as_array as _as_array, call as _call, compares_with, diagnose
 
 _ATOL = 1e-6
 
@@ -92,113 +92,7 @@ def check_transmittance_and_weights(transmittance_and_weights, n_trials: int = 2
 
 
 # --------------------------------------------------------------------------------------------------
-# Exercise 2: the 8 vertices and trilinear weights of a point in the grid
-# --------------------------------------------------------------------------------------------------
-def _corners_and_weights_reference(point, bound: float, resolution: int) -> tuple[np.ndarray, np.ndarray]:
-    """The (8, 3) vertex indices (i, j, k) of the cell holding ``point`` and their (8,) trilinear weights."""
-    r = resolution
-    p = (np.clip(np.asarray(point, dtype=np.float64), -bound, bound) + bound) / (2 * bound) * (r - 1)
-    i0 = np.clip(np.floor(p), 0, r - 2).astype(int)
-    f = p - i0
-    offsets = np.array(list(np.ndindex(2, 2, 2)))
-    return i0 + offsets, np.prod(np.where(offsets == 1, f, 1.0 - f), axis=1)
-
-
-def _corners_reference(point: np.ndarray, bound: float, resolution: int) -> np.ndarray:
-    """Dense (R, R, R) array indexed [i, j, k] holding each vertex's trilinear weight for ``point``."""
-    dense = np.zeros((resolution,) * 3)
-    corners, weights = _corners_and_weights_reference(point, bound, resolution)
-    np.add.at(dense, tuple(corners.T), weights)
-    return dense
-
-
-def _corners_dense(corners, weights, resolution: int, what: str) -> np.ndarray:
-    corners = np.asarray(corners)
-    weights = _as_array(weights, (8,), f"{what}[1] (weights)")
-    if corners.shape != (8, 3):
-        raise AssertionError(f"{what}[0] (corners) has shape {corners.shape}, expected (8, 3)")
-    if not np.issubdtype(corners.dtype, np.integer):
-        if not np.allclose(corners, np.round(corners)):
-            raise AssertionError(f"{what}[0] (corners) must hold integer vertex indices (i, j, k)")
-        corners = np.round(corners).astype(int)
-    if corners.min() < 0 or corners.max() >= resolution:
-        bad = corners[(corners < 0).any(axis=1) | (corners >= resolution).any(axis=1)][0]
-        raise AssertionError(
-            f"{what} returned the vertex {bad}, outside the grid (indices run from 0 to R - 1 = {resolution - 1})\n"
-            "Hint: a point on the upper face (x = +bound) lies in the LAST cell: clamp the lower corner to R - 2"
-        )
-    dense = np.zeros((resolution,) * 3)
-    np.add.at(dense, tuple(corners.T), weights)
-    return dense
-
-
-def _corners_hint(point, bound, resolution, dense) -> str:
-    r = resolution
-    if abs(dense.sum() - 1.0) > 1e-6:
-        return f"the 8 weights must sum to 1 (yours sum to {dense.sum():.4f})"
-    # cell-centred vertices: vertex i at -bound + (i + 0.5) * 2 bound / R
-    p = (np.clip(point, -bound, bound) + bound) / (2 * bound) * r - 0.5
-    i0 = np.clip(np.floor(p), 0, r - 2).astype(int)
-    f = np.clip(p - i0, 0.0, 1.0)
-    cell = np.zeros_like(dense)
-    for corner in np.ndindex(2, 2, 2):
-        c = np.array(corner)
-        cell[tuple(i0 + c)] += np.prod(np.where(c == 1, f, 1.0 - f))
-    if _close(dense, cell):
-        return ("the vertices sit ON the cube's corners (align_corners=True): vertex i is at -bound + i * 2 bound / (R - 1), "
-                "so the spacing is 2 bound / (R - 1), not 2 bound / R with vertices at cell centres")
-    want = _corners_reference(point, bound, resolution)
-    flipped = np.zeros_like(dense)
-    pr = (np.clip(point, -bound, bound) + bound) / (2 * bound) * (r - 1)
-    i0 = np.clip(np.floor(pr), 0, r - 2).astype(int)
-    f = pr - i0
-    for corner in np.ndindex(2, 2, 2):
-        c = np.array(corner)
-        flipped[tuple(i0 + c)] += np.prod(np.where(c == 1, 1.0 - f, f))
-    if _close(dense, flipped):
-        return "the weights are swapped: the corner at offset 1 along an axis gets weight f (the fraction), the corner at offset 0 gets 1 - f"
-    if _close(np.transpose(dense, (2, 1, 0)), want):
-        return "the axes are reversed: return corners as (i, j, k) = (x index, y index, z index)"
-    return ("p = (x + bound) / (2 bound) * (R - 1); lower corner i0 = floor(p) clamped to [0, R - 2]; f = p - i0; "
-            "corner i0 + c (c in {0,1}^3) gets weight prod over axes of (f if c = 1 else 1 - f)")
-
-
-@compares_with(_corners_and_weights_reference)
-def check_trilinear_corners(trilinear_corners, n_trials: int = 200, seed: int = 0) -> bool:
-    """``trilinear_corners(point, bound, resolution)`` takes a point (3,) inside the cube [-bound, bound]^3
-    of a grid with R = ``resolution`` vertices per axis ON the cube's corners (vertex i at
-    x = -bound + i * 2 bound / (R - 1)) and returns ``(corners, weights)``: the (8, 3) integer indices
-    (i, j, k) of the vertices of the cell holding the point and their (8,) trilinear weights, in any order.
-    A point on the upper face belongs to the last cell (lower corner R - 2)."""
-    rng = np.random.default_rng(seed)
-    cases = [
-        (np.full(3, CUBE_BOUND), CUBE_BOUND, 5),  # the upper corner: last cell
-        (np.full(3, -CUBE_BOUND), CUBE_BOUND, 5),
-        (np.zeros(3), CUBE_BOUND, 5),  # a vertex (R odd)
-        (np.array([0.3, -0.7, 0.9]), 1.0, 4),
-    ]
-    for _ in range(n_trials):
-        bound = float(rng.uniform(0.5, 2.0))
-        cases.append((rng.uniform(-bound, bound, size=3), bound, int(rng.integers(2, 12))))
-    for point, bound, r in cases:
-        out = _pair(_call(trilinear_corners, point.copy(), bound, r), "trilinear_corners(point, bound, resolution)")
-        dense = _corners_dense(out[0], out[1], r, "trilinear_corners(...)")
-        want = _corners_reference(point, bound, r)
-        if _close(dense, want):
-            continue
-        got_idx, want_idx = np.argwhere(np.abs(dense) > 1e-12), np.argwhere(want > 1e-12)
-        raise AssertionError(
-            f"trilinear_corners is wrong for point {np.round(point, 4)}, bound {bound:.3f}, R = {r}:\n"
-            f"your non-zero vertices {got_idx.tolist()} with weights {np.round(dense[tuple(got_idx.T)], 4).tolist()}\n"
-            f"expected vertices {want_idx.tolist()} with weights {np.round(want[tuple(want_idx.T)], 4).tolist()}\n"
-            f"Hint: {_corners_hint(point, bound, r, dense)}"
-        )
-    print(f"check_trilinear_corners: {len(cases)} points agree (including the cube's corners and a vertex)")
-    return True
-
-
-# --------------------------------------------------------------------------------------------------
-# Exercise 3: compositing colour and depth, with the white background
+# Exercise 2: compositing colour and depth, with the white background
 # --------------------------------------------------------------------------------------------------
 def _composite_reference(weights, t, colours):
     acc = weights.sum(axis=1)
@@ -249,4 +143,183 @@ def check_composite(composite, n_trials: int = 20, seed: int = 0) -> bool:
             f"Hint: {_composite_hint(weights, t, colours, rgb, depth)}"
         )
     print(f"check_composite: {n_trials} batches of rays agree (each with one ray that hits nothing)")
+    return True
+
+
+# --------------------------------------------------------------------------------------------------
+# Exercise 3: the loss of a batch (Eqs. 6-9) and one training step
+# --------------------------------------------------------------------------------------------------
+def _loss_parts(rendered, measured, log_clamp: float) -> dict[str, np.ndarray]:
+    """Per-ray terms, in float64: squared colour error summed over channels, absolute depth error, clamped
+    negative log-probability of the measured class."""
+    rgb, depth, sem = (np.asarray(rendered[k].detach(), dtype=np.float64) for k in ("rgb", "depth", "sem"))
+    m_rgb, m_depth = (np.asarray(measured[k], dtype=np.float64) for k in ("rgb", "depth"))
+    labels = np.asarray(measured["labels"])
+    picked = sem[np.arange(len(labels)), labels]
+    with np.errstate(divide="ignore"):
+        sem_raw = -np.log(picked)
+    return {"rgb": ((rgb - m_rgb) ** 2).sum(axis=1), "depth": np.abs(depth - m_depth),
+            "sem": -np.log(np.clip(picked, log_clamp, 1.0)), "rgb_elements": (rgb - m_rgb) ** 2,
+            "depth_sq": (depth - m_depth) ** 2, "rgb_norm": np.sqrt(((rgb - m_rgb) ** 2).sum(axis=1)),
+            "hit": m_depth > 0, "sem_raw": sem_raw}
+
+
+def _loss_variants(rendered, measured, lambdas, log_clamp: float) -> dict[str, float]:
+    """The right total and what common mistakes give instead."""
+    p = _loss_parts(rendered, measured, log_clamp)
+    l1, l2, l3 = lambdas
+    right = l1 * p["rgb"].mean() + l2 * p["depth"].mean() + l3 * p["sem"].mean()
+    return {
+        "right": right,
+        "channel_mean": l1 * p["rgb_elements"].mean() + l2 * p["depth"].mean() + l3 * p["sem"].mean(),
+        "rgb_norm": l1 * p["rgb_norm"].mean() + l2 * p["depth"].mean() + l3 * p["sem"].mean(),
+        "depth_squared": l1 * p["rgb"].mean() + l2 * p["depth_sq"].mean() + l3 * p["sem"].mean(),
+        "hit_only": l1 * p["rgb"].mean() + l2 * p["depth"][p["hit"]].mean() + l3 * p["sem"].mean(),
+        "sum": l1 * p["rgb"].sum() + l2 * p["depth"].sum() + l3 * p["sem"].sum(),
+        "no_clamp": l1 * p["rgb"].mean() + l2 * p["depth"].mean() + l3 * p["sem_raw"].mean(),
+        "lambdas_order": l3 * p["rgb"].mean() + l2 * p["depth"].mean() + l1 * p["sem"].mean(),
+    }
+
+
+_LOSS_HINTS = {
+    "no_clamp": ("a rendered probability of exactly 0 for the measured class gives log(0) = -inf: clamp the probability "
+                 "to at least log_clamp before the log, as Eq. 8's implementation does"),
+    "channel_mean": "the colour term sums the squared error over the 3 channels of a ray, then averages over the rays",
+    "rgb_norm": ("the colour term is the SQUARED error ||C - C_hat||^2 per ray (the paper writes the L2 norm; the "
+                 "implementation squares it, as the reference code does)"),
+    "depth_squared": "the depth term is the ABSOLUTE error |D - D_hat| (Eq. 7, an L1 loss), not its square",
+    "hit_only": ("rays that hit nothing (measured depth 0) count too: they teach free space, since any weight along "
+                 "them raises the rendered depth above 0"),
+    "sum": "each term is a MEAN over the batch's rays, so that the loss does not grow with the batch size",
+    "lambdas_order": "lambdas = (lambda_1, lambda_2, lambda_3) weigh (L_rgb, L_depth, L_sem) in that order (Eq. 9)",
+}
+
+
+def _loss_reference(rendered, measured, lambdas, log_clamp: float):
+    """The same total in torch (it is what the cells after the exercise train with when the answer does not pass)."""
+    l_rgb = ((rendered["rgb"] - measured["rgb"]) ** 2).sum(dim=1).mean()
+    l_depth = (rendered["depth"] - measured["depth"]).abs().mean()
+    picked = rendered["sem"].gather(1, measured["labels"][:, None]).squeeze(1)
+    l_sem = -torch.log(picked.clamp(min=log_clamp, max=1.0)).mean()
+    return lambdas[0] * l_rgb + lambdas[1] * l_depth + lambdas[2] * l_sem
+
+
+def _random_batch(rng: np.random.Generator, rays: int, classes: int):
+    """A rendered and a measured batch as torch tensors; the rendered ones require gradients. Ray 0 hits nothing
+    (depth 0, white), and ray 1 renders probability exactly 0 for its measured class."""
+    sem = rng.dirichlet(np.full(classes, 0.7), size=rays)
+    labels = rng.integers(0, classes, size=rays)
+    sem[1, labels[1]] = 0.0
+    sem[1] /= sem[1].sum()
+    m_depth = rng.uniform(0.5, 3.5, size=rays)
+    m_depth[0] = 0.0
+    m_rgb = rng.uniform(0.0, 1.0, size=(rays, 3))
+    m_rgb[0] = 1.0
+    rendered = {"rgb": rng.uniform(0.0, 1.0, size=(rays, 3)), "depth": rng.uniform(0.0, 3.5, size=rays), "sem": sem}
+    rendered = {k: torch.tensor(v, dtype=torch.float64, requires_grad=True) for k, v in rendered.items()}
+    measured = {"rgb": torch.tensor(m_rgb), "depth": torch.tensor(m_depth), "labels": torch.tensor(labels)}
+    return rendered, measured
+
+
+@compares_with(_loss_reference)
+def check_batch_loss(batch_loss, n_trials: int = 20, seed: int = 0) -> bool:
+    """``batch_loss(rendered, measured, lambdas, log_clamp)`` takes the rendered rays (a dict of torch tensors:
+    ``rgb`` (R, 3), ``depth`` (R,), ``sem`` (R, P) class probabilities), the measured ones (``rgb``, ``depth``,
+    ``labels`` (R,) class indices) and the weights ``(lambda_1, lambda_2, lambda_3)``, and returns Eq. 9 as a
+    torch scalar that gradients flow through: lambda_1 L_rgb + lambda_2 L_depth + lambda_3 L_sem, each a mean
+    over the rays of the squared colour error (summed over channels), the absolute depth error and
+    -log(max(S_hat[label], log_clamp))."""
+    rng = np.random.default_rng(seed)
+    log_clamp = 1e-6
+    answers, cases = [], []
+    for _ in range(n_trials):
+        rendered, measured = _random_batch(rng, int(rng.integers(4, 40)), int(rng.integers(2, 8)))
+        lambdas = tuple(float(x) for x in rng.permutation([rng.uniform(0.5, 2.0), rng.uniform(0.05, 0.3), rng.uniform(2.0, 4.0)]))
+        got = _call(batch_loss, rendered, {k: v.clone() for k, v in measured.items()}, lambdas, log_clamp)
+        if got is None:
+            raise AssertionError("batch_loss returned None: fill in the function body (it still looks like the stub)")
+        if not isinstance(got, torch.Tensor) or got.numel() != 1:
+            raise AssertionError(f"batch_loss must return a torch scalar (one number that .backward() can be called on), "
+                                 f"got {type(got).__name__}")
+        if got.grad_fn is None:
+            raise AssertionError("batch_loss returned a tensor that gradients do not flow through: compute it with "
+                                 "torch operations on the rendered tensors (no .detach(), .numpy() or float())")
+        answers.append(float(got.detach()))
+        cases.append(_loss_variants(rendered, measured, lambdas, log_clamp))
+    same = [bool(np.isclose(a, c["right"], rtol=1e-6, atol=1e-9)) for a, c in zip(answers, cases)]
+    if not all(same):
+        i = same.index(False)
+        rounded = [round(a, 6) if np.isfinite(a) else a for a in answers]
+        variants = {name: [round(c[name], 6) if np.isfinite(c[name]) else c[name] for c in cases] for name in cases[0]}
+        if not np.isfinite(answers[i]):
+            hint = _LOSS_HINTS["no_clamp"]
+        else:
+            hint = diagnose(rounded, variants, _LOSS_HINTS,
+                            "L = lambda_1 mean_r ||C - C_hat||^2 + lambda_2 mean_r |D - D_hat| + lambda_3 mean_r "
+                            "-log(max(S_hat[label], log_clamp))")
+        raise AssertionError(f"batch_loss returned {answers[i]:.6f}, expected {cases[i]['right']:.6f} (batch {i})\n"
+                             f"Hint: {hint}")
+    print(f"check_batch_loss: {n_trials} random batches agree (each with a ray that hits nothing and a zero probability)")
+    return True
+
+
+def _step_reference(model, optimizer, render, loss_fn, batch) -> float:
+    rendered = render(model, batch)
+    loss = loss_fn(rendered, batch)
+    optimizer.zero_grad()
+    loss.backward()
+    optimizer.step()
+    return float(loss)
+
+
+def _tiny_problem(seed: int):
+    """A small differentiable 'renderer' (a linear layer from ray features to rgb, depth and class logits), a
+    batch, an Adam optimiser and the loss: three steps of it show every ordering mistake."""
+    torch.manual_seed(seed)
+    model = torch.nn.Linear(6, 3 + 1 + 4).double()
+    optimizer = torch.optim.Adam(model.parameters(), lr=0.05)
+    g = torch.Generator().manual_seed(seed)
+    batch = {"features": torch.rand(16, 6, generator=g, dtype=torch.float64),
+             "rgb": torch.rand(16, 3, generator=g, dtype=torch.float64),
+             "depth": torch.rand(16, generator=g, dtype=torch.float64) * 3,
+             "labels": torch.randint(0, 4, (16,), generator=g)}
+
+    def render(m, b):
+        out = m(b["features"])
+        return {"rgb": torch.sigmoid(out[:, :3]), "depth": out[:, 3], "sem": torch.softmax(out[:, 4:], dim=1)}
+
+    def loss_fn(rendered, b):
+        return _loss_reference(rendered, b, (1.0, 0.1, 1.0), 1e-6)
+
+    return model, optimizer, render, loss_fn, batch
+
+
+@compares_with(_step_reference)
+def check_training_step(training_step, n_steps: int = 3, seed: int = 0) -> bool:
+    """``training_step(model, optimizer, render, loss_fn, batch)`` renders the batch (``render(model, batch)``),
+    computes ``loss_fn(rendered, batch)``, makes one optimiser step on it and returns the loss as a Python float.
+    Checked on a small model over ``n_steps`` consecutive steps against the reference order of operations."""
+    mine, ref = _tiny_problem(seed), _tiny_problem(seed)
+    for step in range(1, n_steps + 1):
+        before = [p.detach().clone() for p in mine[0].parameters()]
+        got = _call(training_step, *mine)
+        want = _step_reference(*ref)
+        if got is None:
+            raise AssertionError("training_step returned None: return the batch's loss as a float (loss.item())")
+        if isinstance(got, torch.Tensor):
+            raise AssertionError("training_step must return a Python float (loss.item()): a tensor keeps the whole "
+                                 "rendering graph alive until it is freed")
+        if not np.isclose(float(got), want, rtol=1e-9):
+            raise AssertionError(f"step {step}: training_step returned the loss {float(got):.6f}, expected {want:.6f}\n"
+                                 "Hint: return the loss of the batch computed BEFORE the optimiser step")
+        params, params_ref = list(mine[0].parameters()), list(ref[0].parameters())
+        if all(torch.equal(b, p) for b, p in zip(before, params)):
+            raise AssertionError(f"step {step}: the parameters did not change\nHint: after loss.backward() call "
+                                 "optimizer.step(); and zero the gradients BEFORE backward(), not between backward() and step()")
+        if not all(torch.allclose(p, q, rtol=1e-9, atol=1e-12) for p, q in zip(params, params_ref)):
+            hint = ("gradients ADD UP in .grad across backward() calls: call optimizer.zero_grad() before "
+                    "loss.backward() in every step" if step > 1 else
+                    "the order is: render, loss, optimizer.zero_grad(), loss.backward(), optimizer.step()")
+            raise AssertionError(f"after step {step} the parameters differ from the reference step's\nHint: {hint}")
+    print(f"check_training_step: {n_steps} consecutive steps give the reference parameters and losses")
     return True

@@ -144,7 +144,7 @@ def _cmd_run(args):
         records = mission.run(on_step=row)
     except KeyboardInterrupt:
         bar.close()
-        print(f"\ninterrupted: {len(mission.records)} steps are saved in {out / 'metrics.json'}; "
+        print(f"\ninterrupted: {mission.saved_steps} steps are saved in {out / 'metrics.json'}; "
               "run again with --resume to continue", file=sys.stderr)
         return 130
     bar.close()

@@ -25,7 +25,8 @@ import numpy as np
 
 from .config import get_preset
 from .maps import EXPLICIT, IMPLICIT
-from .mission import METRICS_FILE, SCORE_COLUMNS, Mission, MissionConfig, ResultsFolderError, write_json_atomically
+from .mission import (METRICS_FILE, SCORE_COLUMNS, FolderInUseError, Mission, MissionConfig, ResultsFolderError,
+                      write_json_atomically)
 from .planners import PLANNERS, REPLAY
 from .scenes import list_scenes
 
@@ -128,6 +129,8 @@ def run_cell(cell: Cell, root: str, preset: str, budget: int, threads: int | Non
     try:
         Mission(config, out=cell.folder(root), resume=state == "partial", overwrite=state == "corrupt", device=device).run()
         return cell, "redone (was corrupt)" if state == "corrupt" else "ran"
+    except FolderInUseError:  # another process runs this cell (an earlier sweep's worker): never race it
+        raise
     except ResultsFolderError as err:  # an unusable partial result: start the cell again
         Mission(config, out=cell.folder(root), overwrite=True, device=device).run()
         return cell, f"redone ({err})"

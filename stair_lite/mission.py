@@ -4,10 +4,13 @@
 Introduced in notebook 05. After every measurement the mission records the view, the planner's
 scores, the training loss, target-only PSNR and target-mesh precision / completeness / F1 and the
 wall time of each phase, and writes them to ``metrics.json`` (atomically replaced) together with a
-checkpoint, so an interrupted mission loses nothing finished and can be resumed exactly.
+checkpoint that holds the same records, so an interrupted mission loses nothing finished and can be resumed
+exactly. One process at a time writes to a results folder (a lock file); ``--overwrite`` replaces the old
+results only when the new mission saves its first step.
 """
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import time
@@ -28,7 +31,7 @@ from .planners import make_planner, planner_class
 from .scenes import load_scene
 from .simulator import Simulator
 
-METRICS_FILE, CHECKPOINT_FILE = "metrics.json", "checkpoint.pt"
+METRICS_FILE, CHECKPOINT_FILE, LOCK_FILE = "metrics.json", "checkpoint.pt", ".lock"
 MAP_CLASSES = {cls.kind: cls for cls in (ImplicitMap, ExplicitMap)}
 SCORE_COLUMNS = ("utility", "exploitation", "exploration", "ste_utility")  # a record's planner scores (None if absent)
 
@@ -78,8 +81,16 @@ def write_json_atomically(path: Path, data) -> None:
     os.replace(tmp, path)
 
 
+def _steps_and_views(records: list[dict]) -> list[tuple]:
+    return [(r["step"], r["view_rad"]) for r in records]
+
+
 class ResultsFolderError(ValueError):
     """The output folder holds results that must not be mixed with or overwritten by this mission."""
+
+
+class FolderInUseError(ResultsFolderError):
+    """Another mission is writing to the output folder."""
 
 
 class Mission:
@@ -97,17 +108,24 @@ class Mission:
         self.out = Path(out) if out is not None else None
         self.planner = make_planner(config.planner, self.preset, seed=config.seed + 1, replay=config.replay)
         self.records: list[dict] = []
-        self._prepare_folder(resume, overwrite)
-        self.simulator = Simulator(self.scene)
-        kinds = {config.mapper} | ({self.planner.reads} if self.planner.reads else set())
-        self.maps: dict[str, ReconstructionMap] = {
-            kind: MAP_CLASSES[kind].from_preset(self.preset, seed=config.seed, device=self.device) for kind in sorted(kinds)}
-        self.map = self.maps[config.mapper]  # the map that is evaluated
-        self.planning_map = self.maps.get(self.planner.reads)  # the map the planner reads (None: map-free)
-        self.evaluator = Evaluator(self.simulator, self.targets, self.preset, seed=config.seed)
-        self.visited: list[np.ndarray] = []
-        if self.records:
-            self._restore()
+        self.saved_steps = 0  # the steps on disk (a resume continues after them)
+        self._lock = None
+        self._lock_folder()
+        try:
+            self._prepare_folder(resume, overwrite)
+            self.simulator = Simulator(self.scene)
+            kinds = {config.mapper} | ({self.planner.reads} if self.planner.reads else set())
+            self.maps: dict[str, ReconstructionMap] = {
+                kind: MAP_CLASSES[kind].from_preset(self.preset, seed=config.seed, device=self.device) for kind in sorted(kinds)}
+            self.map = self.maps[config.mapper]  # the map that is evaluated
+            self.planning_map = self.maps.get(self.planner.reads)  # the map the planner reads (None: map-free)
+            self.evaluator = Evaluator(self.simulator, self.targets, self.preset, seed=config.seed)
+            self.visited: list[np.ndarray] = []
+            if self.records:
+                self._restore()
+        except BaseException:
+            self.release()
+            raise
 
     @property
     def finished(self) -> bool:
@@ -117,7 +135,37 @@ class Mission:
     def _header(self) -> dict:
         return {"config": {**asdict(self.config), "targets": [CLASS_NAMES[t] for t in self.targets]},
                 "preset": asdict(self.preset)}
+    def _lock_folder(self) -> None:
+        """Hold the results folder's lock file until the mission finishes (``release``): a second process, or a
+        second unfinished Mission of this one, is refused instead of racing this one's files."""
+        if self.out is None:
+            return
+        if self.out.exists() and not self.out.is_dir():
+            raise ResultsFolderError(f"the output folder {self.out} is a file")
+        self.out.mkdir(parents=True, exist_ok=True)
+        handle = open(self.out / LOCK_FILE, "a+")
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.seek(0)
+            holder = handle.read().strip() or "unknown"
+            handle.close()
+            raise FolderInUseError(f"{self.out} is in use by another mission (process {holder}): wait for it to end, "
+                                   "or choose another folder") from None
+        handle.truncate(0)
+        handle.write(str(os.getpid()))
+        handle.flush()
+        self._lock = handle
+
+    def release(self) -> None:
+        """Let another mission write to the results folder (done when the mission finishes or its ``run`` ends)."""
+        if self._lock is not None:
+            self._lock.close()
+            self._lock = None
+
     def _prepare_folder(self, resume: bool, overwrite: bool) -> None:
+        """Check the folder against this mission. The old results stay until this mission saves its first step,
+        also with ``overwrite`` (a mission that fails before that loses nothing)."""
         if self.out is None:
             return
         metrics = self.out / METRICS_FILE
@@ -142,19 +190,17 @@ class Mission:
             if len(self.records) < len(stored.get("steps", [])):
                 raise ResultsFolderError(f"{self.out} holds {len(stored['steps'])} steps, more than the budget "
                                          f"{self.config.budget}; pass a budget of at least that")
-        elif overwrite:
-            for name in (METRICS_FILE, CHECKPOINT_FILE):
-                (self.out / name).unlink(missing_ok=True)
-        self.out.mkdir(parents=True, exist_ok=True)
+            self.saved_steps = len(self.records)
 
     def _save(self) -> None:
         if self.out is None:
             return
         state = {"maps": {kind: m.state_dict() for kind, m in self.maps.items()},
-                 "planner": self.planner.state_dict(), "steps": len(self.records)}
+                 "planner": self.planner.state_dict(), "steps": len(self.records), "records": self.records}
         tmp = self.out / (CHECKPOINT_FILE + ".tmp")
         torch.save(state, tmp)
-        os.replace(tmp, self.out / CHECKPOINT_FILE)
+        os.replace(tmp, self.out / CHECKPOINT_FILE)  # from here the step is saved: the checkpoint holds the records too
+        self.saved_steps = len(self.records)
         write_json_atomically(self.out / METRICS_FILE, {**self._header(), "steps": self.records})
         # (the budget in the header is the current one: a resumed mission may have raised it)
 
@@ -163,6 +209,12 @@ class Mission:
             raise ResultsFolderError(f"{self.out} has {len(self.records)} steps but no {CHECKPOINT_FILE} to resume "
                                      "from; pass --overwrite to start again")
         state = torch.load(self.out / CHECKPOINT_FILE, weights_only=False, map_location=self.device)
+        if (state["steps"] == len(self.records) + 1 and "records" in state
+                and _steps_and_views(state["records"][:-1]) == _steps_and_views(self.records)):
+            # interrupted between the checkpoint and the records: the checkpoint has the newer step, and its records
+            self.records = state["records"]
+            write_json_atomically(self.out / METRICS_FILE, {**self._header(), "steps": self.records})
+            self.saved_steps = len(self.records)
         if state["steps"] != len(self.records):
             raise ResultsFolderError(f"checkpoint in {self.out} is for step {state['steps']}, metrics for step "
                                      f"{len(self.records)}; pass --overwrite to start again")
@@ -218,12 +270,17 @@ class Mission:
             record.update(decision.scores.columns(decision.chosen_index))
         self.records.append(record)
         self._save()
+        if self.finished:
+            self.release()
         return record
 
     def run(self, on_step=None) -> list[dict]:
         """Run the remaining steps; ``on_step(record)`` is called after each (e.g. to print a table row)."""
-        while not self.finished:
-            record = self.step()
-            if on_step is not None:
-                on_step(record)
+        try:
+            while not self.finished:
+                record = self.step()
+                if on_step is not None:
+                    on_step(record)
+        finally:
+            self.release()
         return self.records

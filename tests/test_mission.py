@@ -1,10 +1,11 @@
 import json
+import os
 import numpy as np
 import pytest
 
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
-from stair_lite.mission import Mission, MissionConfig, ResultsFolderError
+from stair_lite.mission import FolderInUseError, Mission, MissionConfig, ResultsFolderError
 
 TINY = get_preset("smoke")
 
@@ -149,3 +150,60 @@ def test_a_mission_runs_on_the_gpu(tmp_path, planner):
     records = Mission(MissionConfig(planner=planner, preset="smoke", budget=2, mapper="explicit" if planner == "ste" else "implicit"),
                       out=tmp_path, device="cuda").run()
     assert len(records) == 2 and np.isfinite(records[-1]["psnr"])
+
+
+def test_overwrite_keeps_the_old_results_until_the_new_mission_saves(tmp_path, monkeypatch):
+    """--overwrite of a folder that holds a mission: a new mission that fails (or is interrupted) before its first
+    step is saved leaves the old results as they were."""
+    old = run(tmp_path, "x", budget=2)
+    replay = tmp_path / "short.json"
+    replay.write_text(json.dumps({"steps": old[:1]}))
+    with pytest.raises(ValueError, match="fewer than the budget 3"):
+        Mission(MissionConfig(planner="replay", replay=str(replay), budget=3), out=tmp_path / "x", preset=TINY,
+                overwrite=True)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("stair_lite.mission.Evaluator", interrupted)  # Ctrl-C while the new mission is being built
+    with pytest.raises(KeyboardInterrupt):
+        run(tmp_path, "x", budget=1, planner="uniform", overwrite=True)
+    assert json.loads((tmp_path / "x" / "metrics.json").read_text())["steps"] == json.loads(json.dumps(old))
+    assert (tmp_path / "x" / "checkpoint.pt").exists()
+    monkeypatch.undo()
+    assert len(run(tmp_path, "x", budget=1, planner="uniform", overwrite=True)) == 1  # saving replaces them
+
+
+def test_an_interrupt_between_checkpoint_and_records_loses_no_step(tmp_path, monkeypatch):
+    full = run(tmp_path, "full", budget=3)
+    from stair_lite import mission as mission_module
+
+    writes = []
+    original = mission_module.write_json_atomically
+
+    def interrupted_on_step_two(path, data):
+        writes.append(len(data["steps"]))
+        if len(data["steps"]) == 2:
+            raise KeyboardInterrupt  # after the checkpoint of step 2 was replaced, before its records
+        original(path, data)
+
+    monkeypatch.setattr(mission_module, "write_json_atomically", interrupted_on_step_two)
+    mission = Mission(MissionConfig(planner="stair", budget=3), out=tmp_path / "cut", preset=TINY)
+    with pytest.raises(KeyboardInterrupt):
+        mission.run()
+    assert mission.saved_steps == 2 and len(json.loads((tmp_path / "cut" / "metrics.json").read_text())["steps"]) == 1
+    monkeypatch.undo()
+    resumed = run(tmp_path, "cut", budget=3, resume=True)
+    assert strip_times(resumed) == strip_times(full)
+
+
+def test_a_folder_in_use_is_refused_until_its_mission_ends(tmp_path):
+    first = Mission(MissionConfig(planner="uniform", budget=2), out=tmp_path / "x", preset=TINY)
+    first.step()
+    with pytest.raises(FolderInUseError, match=rf"in use by another mission \(process {os.getpid()}\)"):
+        Mission(MissionConfig(planner="uniform", budget=2), out=tmp_path / "x", preset=TINY, resume=True)
+    first.step()  # the last step: the mission releases the folder
+    assert len(run(tmp_path, "x", budget=3, planner="uniform", resume=True)) == 3
+    (tmp_path / "file").write_text("")
+    with pytest.raises(ResultsFolderError, match="is a file"):
+        run(tmp_path, "file", budget=1)

@@ -73,16 +73,16 @@ def test_grading_gives_full_points_to_the_solutions_and_fewer_to_a_wrong_answer(
         (submissions / student).mkdir(parents=True)
     shutil.copy(source, submissions / "solutions" / source.name)
     nb = nbformat.read(source, as_version=4)
-    cell = next(c for c in nb.cells if grading(c).get("grade_id") == "01_pixel_to_ray")
-    assert "u + 0.5, v + 0.5" in cell.source
-    cell.source = cell.source.replace("u + 0.5, v + 0.5", "u, v")  # the pixel's corner, not its centre
+    cell = next(c for c in nb.cells if grading(c).get("grade_id") == "01_scale_intrinsics")
+    assert "scaled[:2] *= factor" in cell.source
+    cell.source = cell.source.replace("scaled[:2] *= factor", "scaled[:2, :2] *= factor")  # the principal point left behind
     nbformat.write(nb, submissions / "one_wrong" / source.name)
     course.student_release(tmp_path / "release", [source])
     shutil.copy(tmp_path / "release" / source.name, submissions / "untouched" / source.name)
 
     grades = {g.student: g for g in course.grade(submissions, [source], keep=tmp_path / "executed")}
     assert grades["solutions"].score == grades["solutions"].max_score == 3 and not grades["solutions"].failed
-    assert grades["one_wrong"].score == 2 and grades["one_wrong"].failed == ("01_pixel_to_ray_check",)
+    assert grades["one_wrong"].score == 2 and grades["one_wrong"].failed == ("01_scale_intrinsics_check",)
     assert grades["untouched"].score == 0 and len(grades["untouched"].failed) == 3
     executed = nbformat.read(tmp_path / "executed" / "untouched" / course.ASSIGNMENT / source.name, as_version=4)
     errors = [c for c in executed.cells if any(o.get("output_type") == "error" for o in c.get("outputs", []))]

@@ -3,78 +3,80 @@ import numpy as np
 import pytest
 
 from stair_lite.config import get_preset
-from stair_lite.exercises.planning import (
-    check_area_under_curve,
-    check_first_step_above,
-    check_max_distance_choice,
-    fake_records,
-)
-from stair_lite.geometry import angular_distance, view_to_position
-from stair_lite.planners import MIN_SEPARATION, make_planner
+from stair_lite.exercises.planning import check_area_under_curve, check_choose_view, check_first_step_above, fake_records
+from stair_lite.geometry import TOP_VIEW, view_to_pose
+from stair_lite.maps import ImplicitMap
+from stair_lite.planners import far_enough, make_planner
+from stair_lite.scenes import load_scene
+from stair_lite.simulator import Simulator
 
 
-# ---- exercise 1: the Max View Distance planner's choice -----------------------------------------
-def choice_ok(candidates, visited, min_separation):
-    c = view_to_position(candidates[:, 0], candidates[:, 1])
-    v = view_to_position(visited[:, 0], visited[:, 1])
-    score = ((c[:, None] - v[None]) ** 2).sum(-1).mean(axis=1)
-    allowed = angular_distance(candidates, visited).min(axis=1) > min_separation
-    return int(np.argmax(np.where(allowed, score, -np.inf)))
+# ---- exercise 1: the exploration weight decides -------------------------------------------------
+def choose_ok(exploitation, exploration, epsilon, allowed):
+    return int(np.argmax(np.where(allowed, exploitation + epsilon * exploration, -np.inf)))
 
 
-def choice_flat(candidates, visited, min_separation):
-    score = ((candidates[:, None] - visited[None]) ** 2).sum(-1).mean(axis=1)
-    allowed = angular_distance(candidates, visited).min(axis=1) > min_separation
-    return int(np.argmax(np.where(allowed, score, -np.inf)))
+def choose_no_exclusion(exploitation, exploration, epsilon, allowed):
+    return int(np.argmax(exploitation + epsilon * exploration))
 
 
-def choice_min(candidates, visited, min_separation):
-    c = view_to_position(candidates[:, 0], candidates[:, 1])
-    v = view_to_position(visited[:, 0], visited[:, 1])
-    score = ((c[:, None] - v[None]) ** 2).sum(-1).min(axis=1)
-    allowed = angular_distance(candidates, visited).min(axis=1) > min_separation
-    return int(np.argmax(np.where(allowed, score, -np.inf)))
+def choose_eps_on_exploitation(exploitation, exploration, epsilon, allowed):
+    return choose_ok(exploration, exploitation, epsilon, allowed)
 
 
-def choice_no_exclusion(candidates, visited, min_separation):
-    c = view_to_position(candidates[:, 0], candidates[:, 1])
-    v = view_to_position(visited[:, 0], visited[:, 1])
-    return int(np.argmax(((c[:, None] - v[None]) ** 2).sum(-1).mean(axis=1)))
+def choose_convex(exploitation, exploration, epsilon, allowed):
+    return choose_ok((1 - epsilon) * exploitation, exploration, epsilon, allowed)
 
 
-def choice_returns_view(candidates, visited, min_separation):
-    return candidates[choice_ok(candidates, visited, min_separation)]
+def choose_exploitation_only(exploitation, exploration, epsilon, allowed):
+    return choose_ok(exploitation, exploration, 0.0, allowed)
 
 
-def choice_stub(candidates, visited, min_separation):
+def choose_lowest(exploitation, exploration, epsilon, allowed):
+    return int(np.argmin(np.where(allowed, exploitation + epsilon * exploration, np.inf)))
+
+
+def choose_returns_scores(exploitation, exploration, epsilon, allowed):
+    return exploitation + epsilon * exploration
+
+
+def choose_stub(exploitation, exploration, epsilon, allowed):
     raise NotImplementedError
 
 
-def test_max_distance_accepts_correct():
-    assert check_max_distance_choice(choice_ok)
+def test_choose_view_accepts_correct():
+    assert check_choose_view(choose_ok)
 
 
-def test_max_distance_agrees_with_the_library_planner():
-    """The checker's notion of 'right' is the one the max_distance baseline planner uses."""
-    planner = make_planner("max_distance", get_preset("lite"), seed=3)
-    visited = np.array([[np.pi / 2, 0.0], [0.4, 1.0], [0.7, 3.0]])
-    decision = planner.next_view(None, visited, (1,))
-    assert decision.chosen_index == choice_ok(decision.candidates, visited, MIN_SEPARATION)
+def test_choose_view_agrees_with_the_library_planner():
+    """The checker's notion of 'right' is the choice the STAIR planner makes from its scored candidates."""
+    preset = get_preset("lite")
+    scene = load_scene("scene1")
+    implicit = ImplicitMap.from_preset(preset, seed=0)
+    implicit.add_measurement(Simulator(scene).render(view_to_pose(*TOP_VIEW)))
+    implicit.trainer.update(5)
+    visited = np.array([TOP_VIEW])
+    decision = make_planner("stair", preset, seed=1).next_view(implicit.field, visited, scene.targets)
+    s = decision.scores
+    assert decision.chosen_index == choose_ok(s.exploitation, s.exploration, preset.plan.epsilon,
+                                              far_enough(decision.candidates, visited))
 
 
 @pytest.mark.parametrize(
     "wrong, hint",
     [
-        (choice_flat, "elevation, azimuth"),
-        (choice_min, "CLOSEST"),
-        (choice_no_exclusion, "minimum separation"),
-        (choice_returns_view, "one integer index"),
-        (choice_stub, "NotImplementedError"),
+        (choose_no_exclusion, "not allowed"),
+        (choose_eps_on_exploitation, "EXPLORATION term"),
+        (choose_convex, "does not blend"),
+        (choose_exploitation_only, "ignored epsilon"),
+        (choose_lowest, "HIGHEST"),
+        (choose_returns_scores, "one integer index"),
+        (choose_stub, "NotImplementedError"),
     ],
 )
-def test_max_distance_rejects_wrong(wrong, hint):
+def test_choose_view_rejects_wrong(wrong, hint):
     with pytest.raises(AssertionError, match=hint):
-        check_max_distance_choice(wrong)
+        check_choose_view(wrong)
 
 
 # ---- exercise 2: first step above a threshold, area under the curve ---------------------------

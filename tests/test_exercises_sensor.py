@@ -2,43 +2,73 @@
 import numpy as np
 import pytest
 
-from stair_lite.exercises.sensor import check_pixel_to_ray, check_project, check_view_angle
-from stair_lite.geometry import angular_distance
+from stair_lite.exercises.sensor import check_project, check_scale_intrinsics, check_view_angle
+from stair_lite.geometry import Intrinsics, angular_distance
 
 
-# ---- exercise 1: pixel -> camera ray ------------------------------------------------------------
-def ray_ok(u, v, K):
-    return np.linalg.inv(K) @ np.array([u + 0.5, v + 0.5, 1.0])
+# ---- exercise 1: the same camera at another resolution -----------------------------------------
+def scaled_ok(K, factor):
+    out = K.astype(float).copy()
+    out[:2] *= factor
+    out[2] = [0, 0, 1]
+    return out
 
 
-def ray_no_centre(u, v, K):
-    return np.linalg.inv(K) @ np.array([u, v, 1.0])
+def scaled_library(K, factor):
+    big = Intrinsics(400, 300, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    return big.scaled(factor).K
 
 
-def ray_normalised(u, v, K):
-    d = ray_ok(u, v, K)
-    return d / np.linalg.norm(d)
+def scaled_centres_at_integers(K, factor):
+    out = scaled_ok(K, factor)
+    out[:2, 2] = factor * (K[:2, 2] + 0.5) - 0.5
+    return out
 
 
-def ray_swapped(u, v, K):
-    return ray_ok(v, u, K)
+def scaled_focal_kept(K, factor):
+    out = scaled_ok(K, factor)
+    out[0, 0], out[1, 1] = K[0, 0], K[1, 1]
+    return out
 
 
-def ray_stub(u, v, K):
+def scaled_centre_kept(K, factor):
+    out = scaled_ok(K, factor)
+    out[:2, 2] = K[:2, 2]
+    return out
+
+
+def scaled_inverse(K, factor):
+    return scaled_ok(K, 1 / factor)
+
+
+def scaled_everything(K, factor):
+    return K * factor
+
+
+def scaled_stub(K, factor):
     return None
 
 
-def test_pixel_to_ray_accepts_correct():
-    assert check_pixel_to_ray(ray_ok)
+def test_scale_intrinsics_accepts_correct():
+    assert check_scale_intrinsics(scaled_ok)
+
+
+def test_scale_intrinsics_accepts_the_library_where_its_sizes_are_whole():
+    """Intrinsics.scaled rounds the image size; at factors that give whole sizes it is the exercise's answer."""
+    rng = np.random.default_rng(0)
+    for factor in (0.1, 0.2, 0.25, 0.5, 2.0):
+        K = np.array([[rng.uniform(80, 400), 0, rng.uniform(20, 200)], [0, rng.uniform(80, 400), rng.uniform(20, 200)], [0, 0, 1]])
+        assert np.allclose(scaled_library(K, factor), scaled_ok(K, factor))
 
 
 @pytest.mark.parametrize(
     "wrong, hint",
-    [(ray_no_centre, "CENTRE"), (ray_normalised, "normalised"), (ray_swapped, "swapped"), (ray_stub, "None")],
+    [(scaled_centres_at_integers, "integer"), (scaled_focal_kept, "field of view"), (scaled_centre_kept, "principal point"),
+     (scaled_inverse, "divided"), (scaled_everything, "bottom-right"), (scaled_stub, "None")],
 )
-def test_pixel_to_ray_rejects_wrong(wrong, hint):
+def test_scale_intrinsics_rejects_wrong(wrong, hint):
     with pytest.raises(AssertionError, match=hint):
-        check_pixel_to_ray(wrong)
+        check_scale_intrinsics(wrong)
 
 
 # ---- exercise 2: world -> image ---------------------------------------------------------------
@@ -140,7 +170,15 @@ def stub_raising(*args):
     raise NotImplementedError
 
 
-@pytest.mark.parametrize("checker", [check_pixel_to_ray, check_project, check_view_angle])
+@pytest.mark.parametrize("checker", [check_scale_intrinsics, check_project, check_view_angle])
 def test_checkers_explain_an_untouched_stub(checker):
     with pytest.raises(AssertionError, match="NotImplementedError"):
         checker(stub_raising)
+
+
+def test_an_error_in_the_learners_code_is_named_with_the_arguments():
+    def project_wrong_shapes(points, pose, K):
+        return points @ pose, points[:, 2]  # (N, 3) @ (4, 4): numpy raises ValueError
+
+    with pytest.raises(AssertionError, match=r"project_wrong_shapes raised ValueError(.|\n)*ndarray of shape \(\d+, 3\)"):
+        check_project(project_wrong_shapes)

@@ -42,13 +42,30 @@ def mine_or_reference(mine, check):
         return check.reference
 
 
+def describe(value) -> str:
+    """A short description of an argument for an error message: its type and, for arrays, tensors and dicts, its shape."""
+    if hasattr(value, "shape") and hasattr(value, "dtype"):
+        return f"{type(value).__name__} of shape {tuple(value.shape)} ({value.dtype})"
+    if isinstance(value, dict):
+        return "dict {" + ", ".join(f"{k!r}: {describe(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, (int, float, str, bool)) or value is None:
+        return repr(value)
+    return type(value).__name__
+
+
 def call(fn, *args):
-    """Call the learner's function; a stub that still raises NotImplementedError gets a clear message."""
+    """Call the learner's function. A stub that still raises NotImplementedError, or code that raises anything else,
+    gets a message that names the function, the error and the arguments it was called with (the traceback above it
+    still shows the line)."""
+    name = getattr(fn, "__name__", "the function")
     try:
         return fn(*args)
     except NotImplementedError:
-        raise AssertionError(f"{getattr(fn, '__name__', 'the function')} raised NotImplementedError: "
-                             "replace the stub's body with your code") from None
+        raise AssertionError(f"{name} raised NotImplementedError: replace the stub's body with your code") from None
+    except Exception as err:
+        arguments = "\n".join(f"  argument {i + 1}: {describe(a)}" for i, a in enumerate(args))
+        raise AssertionError(f"{name} raised {type(err).__name__}: {err}\nwhen the checker called it with\n{arguments}\n"
+                             "(the traceback above points to the line in your code)") from err
 
 
 def as_array(value, shape, what: str) -> np.ndarray:

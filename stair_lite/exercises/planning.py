@@ -3,132 +3,98 @@
 Each ``check_*`` takes the learner's function, calls it on seeded random inputs (plus a few built to
 expose one mistake each), compares the answers with an independent computation written here in
 plain numpy, and raises ``AssertionError`` with a hint when they differ. Where a wrong answer matches
-a common mistake (distances in (elevation, azimuth) instead of between camera centres, the closest
-visited view instead of the mean, 0-based step numbers, rectangles instead of trapezoids, ...) the
-hint names it. On success a checker prints one line and returns ``True``.
+a common mistake (epsilon on the wrong term, a blend instead of a sum, a view that is not allowed,
+0-based step numbers, rectangles instead of trapezoids, ...) the hint names it. On success a checker prints one line and returns ``True``.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..planners import MIN_SEPARATION
 from .common import call as _call, compares_with, diagnose
 
 # --------------------------------------------------------------------------------------------------
-# helpers
+# Exercise 1: the exploration weight decides (Eq. 15)
 # --------------------------------------------------------------------------------------------------
-_RADIUS = 2.0  # the hemisphere radius of the camera centres (any radius gives the same choice)
-
-
-def _centres(views: np.ndarray) -> np.ndarray:
-    el, az = views[:, 0], views[:, 1]
-    return _RADIUS * np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=1)
-
-
-def _great_circle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    da, db = _centres(a) / _RADIUS, _centres(b) / _RADIUS
-    return np.arccos(np.clip(da @ db.T, -1.0, 1.0))
-
-
 def _choice(score: np.ndarray, allowed: np.ndarray) -> int:
     return int(np.argmax(np.where(allowed, score, -np.inf)))
 
 
-# --------------------------------------------------------------------------------------------------
-# Exercise 1: the Max View Distance planner's choice
-# --------------------------------------------------------------------------------------------------
-def _max_distance_variants(candidates, visited, min_separation) -> dict[str, int]:
-    """The right choice and the choices a few plausible mistakes make (independent of stair_lite)."""
-    c, v = _centres(candidates), _centres(visited)
-    sq = ((c[:, None, :] - v[None, :, :]) ** 2).sum(-1)  # (N, M) squared distances between camera centres
-    allowed = _great_circle(candidates, visited).min(axis=1) > min_separation
-    d_el = candidates[:, None, 0] - visited[None, :, 0]
-    d_az = candidates[:, None, 1] - visited[None, :, 1]
-    flat = d_el ** 2 + d_az ** 2  # "distance" in the (elevation, azimuth) plane
+def _choose_variants(u_et, u_er, epsilon, allowed) -> dict[str, int]:
+    """The right choice and the choices a few plausible mistakes make."""
     return {
-        "right": _choice(sq.mean(axis=1), allowed),
-        "flat": _choice(flat.mean(axis=1), allowed),
-        "min": _choice(sq.min(axis=1), allowed),
-        "not_squared": _choice(np.sqrt(sq).mean(axis=1), allowed),
-        "no_exclusion": int(np.argmax(sq.mean(axis=1))),
+        "right": _choice(u_et + epsilon * u_er, allowed),
+        "no_exclusion": int(np.argmax(u_et + epsilon * u_er)),
+        "eps_on_exploitation": _choice(epsilon * u_et + u_er, allowed),
+        "convex": _choice((1.0 - epsilon) * u_et + epsilon * u_er, allowed),
+        "exploitation_only": _choice(u_et, allowed),
+        "exploration_only": _choice(u_er, allowed),
+        "lowest": int(np.argmin(np.where(allowed, u_et + epsilon * u_er, np.inf))),
     }
 
 
-def _max_distance_cases(rng: np.random.Generator, n_random: int):
-    """(candidates, visited) pairs: random ones, and hand-made ones where one mistake changes the answer."""
-    cases = []
-    # 1. the unconstrained best candidate sits 3 deg from a visited view: it must be excluded
-    visited = np.array([[0.05, 0.0], [0.15, np.pi], [0.2, np.pi + 0.3], [0.25, np.pi - 0.3]])
-    candidates = np.array([[0.05, np.radians(3.0)], [0.6, 0.5], [0.3, 1.2], [1.0, 4.0], [0.05, 0.4], [0.4, 5.8]])
-    cases.append((candidates, visited))
-    # 2. azimuths across the seam: 0.1 and 2 pi - 0.1 are neighbours on the sphere, far apart in (el, az)
-    visited = np.array([[0.2, 0.1], [np.pi / 2, 0.0]])
-    candidates = np.array([[0.2, 2 * np.pi - 0.3], [0.3, np.pi], [0.6, 2.0], [0.5, 4.0]])
-    cases.append((candidates, visited))
-    # 3. random missions in progress, like the planner's 200 random candidates against 1-9 visited views
-    for _ in range(n_random):
-        m = int(rng.integers(1, 10))
-        sin_el = rng.uniform(0.005, 1.0, size=(m + 60,))
-        views = np.stack([np.arcsin(sin_el), rng.uniform(0, 2 * np.pi, size=m + 60)], axis=1)
-        visited, candidates = views[:m], views[m:]
-        # a few candidates very close to visited views (they must never be chosen)
-        near = visited[rng.integers(0, m, size=5)] + rng.normal(0, 0.03, size=(5, 2))
-        near[:, 0] = np.clip(near[:, 0], 0.01, np.pi / 2)
-        near[:, 1] %= 2 * np.pi
-        cases.append((np.concatenate([candidates, near]), visited))
-    return cases
-
-
-_MAX_DISTANCE_HINTS = {
-    "flat": "you measured distance in the (elevation, azimuth) plane: azimuth wraps around at 2 pi and means nothing "
-            "at the top view; turn every view into its camera centre r (cos el cos az, cos el sin az, sin el) first",
-    "min": "you scored a candidate by its CLOSEST visited view (min); the planner uses the MEAN squared distance "
-           "to all visited camera centres",
-    "not_squared": "you averaged plain distances; the planner averages SQUARED distances",
-    "no_exclusion": "you chose a candidate within the minimum separation of a visited view: exclude candidates whose "
-                    "great-circle angle to any visited view is <= min_separation before taking the best",
+_CHOOSE_HINTS = {
+    "no_exclusion": "a candidate that is not allowed (too close to a visited view) must never be chosen, however high its U",
+    "eps_on_exploitation": "epsilon weighs the EXPLORATION term: U = U_et + epsilon * U_er (Eq. 15)",
+    "convex": "Eq. 15 adds epsilon * U_er to U_et; it does not blend them as (1 - epsilon) U_et + epsilon U_er",
+    "exploitation_only": "you ignored epsilon and the exploration term: U = U_et + epsilon * U_er",
+    "exploration_only": "you ignored the exploitation term: U = U_et + epsilon * U_er",
+    "lowest": "the planner takes the view of HIGHEST utility among the allowed ones",
 }
 
 
-def _max_distance_reference(candidates, visited, min_separation):
-    return _max_distance_variants(np.asarray(candidates), np.asarray(visited), min_separation)["right"]
+def _choose_cases(rng: np.random.Generator, n_random: int):
+    """(U_et, U_er, epsilon, allowed): random ones, and hand-made ones where one mistake changes the answer."""
+    cases = [
+        # the best view overall is not allowed
+        (np.array([5.0, 1.0, 2.0, 0.5]), np.array([10.0, 4.0, 3.0, 9.0]), 0.2, np.array([False, True, True, True])),
+        # exploration decides at a large epsilon, exploitation at a small one
+        (np.array([3.0, 1.0, 0.0]), np.array([3.0, 12.0, 5.0]), 0.5, np.ones(3, bool)),
+        (np.array([3.0, 1.0, 0.0]), np.array([3.0, 12.0, 5.0]), 0.1, np.ones(3, bool)),
+        (np.array([0.0, 2.0, 1.0]), np.array([8.0, 2.5, 6.0]), 0.0, np.ones(3, bool)),
+    ]
+    for _ in range(n_random):
+        n = int(rng.integers(5, 120))
+        u_er = rng.uniform(0.0, 100.0, size=n)
+        u_et = u_er * rng.uniform(0.0, 1.0, size=n) ** 2  # exploitation counts a part of the same uncertainty
+        allowed = rng.uniform(size=n) > 0.2
+        allowed[rng.integers(0, n)] = True
+        cases.append((u_et, u_er, float(rng.choice([0.0, 0.2, 0.5, 0.8, rng.uniform(0.0, 3.0)])), allowed))
+    return cases
 
 
-@compares_with(_max_distance_reference)
-def check_max_distance_choice(max_distance_choice, n_random: int = 60, seed: int = 0) -> bool:
-    """``max_distance_choice(candidates, visited, min_separation)`` takes candidate views (N, 2) and visited
-    views (M, 2) as (elevation, azimuth) in radians and a minimum separation in radians, and returns the
-    index (an int) of the candidate whose camera centre has the largest MEAN SQUARED Euclidean distance
-    to the visited camera centres, among candidates more than ``min_separation`` (great-circle angle)
-    away from every visited view."""
-    rng = np.random.default_rng(seed)
-    cases = _max_distance_cases(rng, n_random)
+def _choose_reference(exploitation, exploration, epsilon, allowed) -> int:
+    return _choice(np.asarray(exploitation) + epsilon * np.asarray(exploration), np.asarray(allowed, bool))
+
+
+@compares_with(_choose_reference)
+def check_choose_view(choose_view, n_random: int = 60, seed: int = 0) -> bool:
+    """``choose_view(exploitation, exploration, epsilon, allowed)`` takes the candidates' U_et and U_er (N,), the
+    exploration weight and a boolean mask (N,) of the allowed candidates, and returns the index (an int) of the
+    allowed candidate of highest U = U_et + epsilon U_er (Eq. 15)."""
+    cases = _choose_cases(np.random.default_rng(seed), n_random)
     answers = []
-    for candidates, visited in cases:
-        got = _call(max_distance_choice, candidates.copy(), visited.copy(), MIN_SEPARATION)
+    for u_et, u_er, epsilon, allowed in cases:
+        got = _call(choose_view, u_et.copy(), u_er.copy(), epsilon, allowed.copy())
         if got is None:
-            raise AssertionError("max_distance_choice returned None: fill in the function body (it still looks like the stub)")
+            raise AssertionError("choose_view returned None: fill in the function body (it still looks like the stub)")
         if np.ndim(got) != 0 or not float(got).is_integer():
-            raise AssertionError(f"max_distance_choice must return one integer index into the candidates, got {got!r}")
-        if not 0 <= int(got) < len(candidates):
-            raise AssertionError(f"max_distance_choice returned index {int(got)}, but there are {len(candidates)} candidates")
+            raise AssertionError(f"choose_view must return one integer index into the candidates, got {got!r}")
+        if not 0 <= int(got) < len(u_et):
+            raise AssertionError(f"choose_view returned index {int(got)}, but there are {len(u_et)} candidates")
         answers.append(int(got))
-    per_case = [_max_distance_variants(candidates, visited, MIN_SEPARATION) for candidates, visited in cases]
+    per_case = [_choose_variants(*case) for case in cases]
     variants = {name: [v[name] for v in per_case] for name in per_case[0]}
     wrong = [i for i, (got, want) in enumerate(zip(answers, variants["right"])) if got != want]
     if wrong:
         i = wrong[0]
-        (candidates, visited), got, want = cases[i], answers[i], variants["right"][i]
-        if _great_circle(candidates[got : got + 1], visited).min() <= MIN_SEPARATION:
-            hint = _MAX_DISTANCE_HINTS["no_exclusion"]
-        else:
-            hint = diagnose(answers, variants, _MAX_DISTANCE_HINTS,
-                            "score = mean over visited views of |c - v|^2 between camera centres; take the best "
-                            "candidate among those more than min_separation from every visited view")
+        u_et, u_er, epsilon, allowed = cases[i]
+        got, want = answers[i], variants["right"][i]
+        hint = (_CHOOSE_HINTS["no_exclusion"] if not allowed[got] else
+                diagnose(answers, variants, _CHOOSE_HINTS, "return the allowed index of the largest U_et + epsilon * U_er"))
         raise AssertionError(
-            f"max_distance_choice picked candidate {got} {np.round(candidates[got], 3)}, expected {want} "
-            f"{np.round(candidates[want], 3)} (with {len(visited)} visited views)\nHint: {hint}")
-    print(f"check_max_distance_choice: {len(cases)} planning situations agree (seam, exclusion and random cases)")
+            f"choose_view picked candidate {got} (U_et {u_et[got]:.2f}, U_er {u_er[got]:.2f}), expected {want} "
+            f"(U_et {u_et[want]:.2f}, U_er {u_er[want]:.2f}) at epsilon {epsilon:.2f}\nHint: {hint}")
+    print(f"check_choose_view: {len(cases)} planning steps agree (exclusion, epsilon 0 to 3 and random cases)")
     return True
 
 

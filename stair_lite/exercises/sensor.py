@@ -3,7 +3,7 @@
 Each ``check_*`` takes the learner's function, calls it on several seeded random inputs, compares
 the answers with an independent computation written here in plain numpy, and raises
 ``AssertionError`` with a hint when they differ. Where a wrong answer matches a common mistake
-(forgetting the pixel centre, swapping x and y, using range instead of z-depth, ...) the hint
+(a principal point off by a fraction of a pixel, swapping x and y, using range instead of z-depth, ...) the hint
 names that mistake. On success a checker prints one line and returns ``True``.
 """
 from __future__ import annotations
@@ -36,37 +36,52 @@ def _close(a, b, atol: float = _ATOL) -> bool:
 
 
 # --------------------------------------------------------------------------------------------------
-# Exercise 1: the camera-frame ray through a pixel
+# Exercise 1: the same camera at another resolution
 # --------------------------------------------------------------------------------------------------
-def _ray_reference(u, v, K):
-    return np.array([(u + 0.5 - K[0, 2]) / K[0, 0], (v + 0.5 - K[1, 2]) / K[1, 1], 1.0])
+def _scaled_reference(K, factor):
+    return np.array([[K[0, 0] * factor, 0.0, K[0, 2] * factor], [0.0, K[1, 1] * factor, K[1, 2] * factor], [0.0, 0.0, 1.0]])
 
 
-@compares_with(_ray_reference)
-def check_pixel_to_ray(pixel_to_ray, n_trials: int = 50, seed: int = 0) -> bool:
-    """``pixel_to_ray(u, v, K)`` must return the camera-frame direction (x, y, 1) through the centre of
-    pixel (u, v) (u = column, v = row), with z component exactly 1 (so the ray parameter is z-depth)."""
+def _scaled_variants(K, factor) -> dict[str, np.ndarray]:
+    """The right matrix and what common mistakes give instead."""
+    right = _scaled_reference(K, factor)
+    centres_at_integers = right.copy()
+    centres_at_integers[:2, 2] = factor * (K[:2, 2] + 0.5) - 0.5
+    focal_kept, centre_kept, inverse = right.copy(), right.copy(), _scaled_reference(K, 1.0 / factor)
+    focal_kept[0, 0], focal_kept[1, 1] = K[0, 0], K[1, 1]
+    centre_kept[:2, 2] = K[:2, 2]
+    return {"right": right, "centres_at_integers": centres_at_integers, "focal_kept": focal_kept,
+            "centre_kept": centre_kept, "inverse": inverse, "all": K * factor}
+
+
+_SCALED_HINTS = {
+    "centres_at_integers": ("off by a fraction of a pixel: s (c + 0.5) - 0.5 is the rule where pixel centres sit at integer "
+                            "coordinates; here pixel u spans [u, u + 1), so continuous image coordinates simply scale, "
+                            "u' = s u, and so does the principal point"),
+    "focal_kept": ("the field of view stays the same, so the focal length in pixels shrinks with the image: fx' = s fx "
+                   "(f = (W / 2) / tan(FOV / 2) with W' = s W)"),
+    "centre_kept": "the principal point moves with the image: at W' = s W pixels it is at s cx (still the image centre)",
+    "inverse": "you divided by the factor: a factor of 0.25 turns 400 x 400 into 100 x 100, and every pixel length shrinks by it",
+    "all": "the bottom-right entry of K stays 1 (it is the homogeneous coordinate, not a length)",
+}
+
+
+@compares_with(_scaled_reference)
+def check_scale_intrinsics(scale_intrinsics, n_trials: int = 40, seed: int = 0) -> bool:
+    """``scale_intrinsics(K, factor)`` returns the 3x3 K of the same camera rendering ``factor`` times as many pixels
+    along each axis (0.25: 400 x 400 -> 100 x 100), with the convention that pixel u spans [u, u + 1)."""
     rng = np.random.default_rng(seed)
-    for trial in range(n_trials):
-        K = _random_K(rng)
-        u, v = int(rng.integers(0, 400)), int(rng.integers(0, 300))
-        got = _as_array(_call(pixel_to_ray, u, v, K), (3,), "pixel_to_ray(u, v, K)")
-        want = _ray_reference(u, v, K)
-        if _close(got, want):
+    cases = [(_random_K(rng), float(rng.choice([0.1, 0.2, 0.25, 0.5, 2.0]))) for _ in range(n_trials)]
+    for K, factor in cases:
+        got = _as_array(_call(scale_intrinsics, K.copy(), factor), (3, 3), "scale_intrinsics(K, factor)")
+        variants = _scaled_variants(K, factor)
+        if _close(got, variants["right"]):
             continue
-        where = f"for u={u}, v={v}, K=\n{np.round(K, 3)}\nyou returned {np.round(got, 6)}, expected {np.round(want, 6)}"
-        if _close(got, np.array([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], 1.0])):
-            hint = "you used the pixel's corner: the ray goes through the pixel CENTRE, at (u + 0.5, v + 0.5)"
-        elif _close(got, want / np.linalg.norm(want)):
-            hint = "you normalised the direction: keep z = 1 so that the ray parameter t is the z-depth"
-        elif _close(got, _ray_reference(v, u, K)) or _close(got, [want[1], want[0], 1.0]):
-            hint = "x and y are swapped: u is the column (image x, uses fx and cx), v is the row (image y, uses fy and cy)"
-        elif abs(got[2] - 1.0) > _ATOL:
-            hint = "the z component must be exactly 1 (a camera-frame ray of unit z-depth)"
-        else:
-            hint = "the direction is K^-1 [u + 0.5, v + 0.5, 1]^T: x = (u + 0.5 - cx) / fx, y = (v + 0.5 - cy) / fy"
-        raise AssertionError(f"pixel_to_ray is wrong {where}\nHint: {hint}")
-    print(f"check_pixel_to_ray: {n_trials} random pixels and cameras agree")
+        hint = next((h for name, h in _SCALED_HINTS.items() if _close(got, variants[name])),
+                    "every pixel length scales with the image: fx' = s fx, fy' = s fy, cx' = s cx, cy' = s cy")
+        raise AssertionError(f"scale_intrinsics is wrong for factor {factor} and K =\n{np.round(K, 3)}\nyou returned\n"
+                             f"{np.round(got, 4)}\nexpected\n{np.round(variants['right'], 4)}\nHint: {hint}")
+    print(f"check_scale_intrinsics: {n_trials} random cameras and factors agree")
     return True
 
 

@@ -53,8 +53,9 @@ def _cmd_render(args):
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(out / f"{args.scene}_views.png", dpi=80)
-    print(f"wrote {out / f'{args.scene}_views.png'}")
+    image = out / f"{Path(args.scene).stem}_views.png"  # a scene file's name, not its path: the image goes into --out
+    fig.savefig(image, dpi=80)
+    print(f"wrote {image}")
 
 
 def _cmd_fit(args):

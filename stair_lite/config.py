@@ -5,22 +5,28 @@ by measurement (see ``benchmarks/`` and the README), trading grid resolution and
 """
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, replace
 from dataclasses import field as dataclass_field
 
 from .lattice import CUBE_BOUND
 
 
+MAX_BUDGET = 50  # measurements: the 8.1 deg caps around 49 visited views cover at most half the hemisphere
+
+
 def check_epsilon(epsilon: float) -> None:
-    """The exploration weight of Eq. 15 is a non-negative number."""
-    if not epsilon >= 0:
-        raise ValueError(f"epsilon must be >= 0, got {epsilon!r}")
+    """The exploration weight of Eq. 15 is a finite, non-negative number."""
+    if isinstance(epsilon, bool) or not (isinstance(epsilon, numbers.Real) and 0 <= epsilon < float("inf")):
+        raise ValueError(f"epsilon must be a finite number >= 0, got {epsilon!r}")
 
 
 def check_budget(budget: int) -> None:
-    """A mission makes at least one measurement (the top view)."""
-    if int(budget) != budget or budget < 1:
-        raise ValueError(f"budget must be at least 1 measurement, got {budget!r}")
+    """A mission makes at least one measurement (the top view) and at most ``MAX_BUDGET``: every planner keeps its
+    views 8.1 deg apart, and a cap of that radius around each of 49 views covers at most half the hemisphere
+    (2 pi (1 - cos 8.1 deg) = 0.063 of its 2 pi each), so a next view can always be found."""
+    if isinstance(budget, bool) or not isinstance(budget, numbers.Integral) or not 1 <= budget <= MAX_BUDGET:
+        raise ValueError(f"budget must be a whole number of measurements from 1 to {MAX_BUDGET}, got {budget!r}")
 
 
 @dataclass(frozen=True)

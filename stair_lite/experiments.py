@@ -111,6 +111,8 @@ def cell_state(cell: Cell, root: Path, budget: int) -> str:
         steps = json.loads(path.read_text()).get("steps", [])
     except (json.JSONDecodeError, UnicodeDecodeError, AttributeError):
         return "corrupt"
+    if not isinstance(steps, list) or not all(isinstance(r, dict) for r in steps):
+        return "corrupt"  # e.g. {"steps": 5}
     return "done" if len(steps) >= budget else "partial"
 
 

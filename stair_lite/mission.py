@@ -172,8 +172,12 @@ class Mission:
         if metrics.exists() and not overwrite:
             try:
                 stored = json.loads(metrics.read_text())
-            except json.JSONDecodeError as err:
+            except (json.JSONDecodeError, UnicodeDecodeError) as err:
                 raise ResultsFolderError(f"{metrics} is unreadable ({err}); use --overwrite to start again") from None
+            steps = stored.get("steps", []) if isinstance(stored, dict) else None
+            if not isinstance(steps, list) or not all(isinstance(r, dict) and "view_rad" in r for r in steps):
+                raise ResultsFolderError(f"{metrics} is unreadable (not a mission's records); use --overwrite to start "
+                                         "again")
             mine = json.loads(json.dumps(self._header()))
             if resume:  # a mission may be resumed with a larger budget
                 mine["config"]["budget"] = stored.get("config", {}).get("budget")
@@ -182,6 +186,10 @@ class Mission:
                 raise ResultsFolderError(
                     f"{self.out} holds results of a different mission ({stored.get('config')}); "
                     "choose another folder or pass --overwrite")
+            if resume and self.config.planner == "fixed" and stored["config"]["budget"] != self.config.budget:
+                raise ResultsFolderError(
+                    f"{self.out} holds a fixed-pattern mission of budget {stored['config']['budget']}; its spiral of views "
+                    f"depends on the budget, so it cannot be resumed with budget {self.config.budget}")
             if not resume:
                 raise ResultsFolderError(
                     f"{self.out} already holds {len(stored.get('steps', []))} steps of this mission; "
@@ -208,7 +216,14 @@ class Mission:
         if not (self.out / CHECKPOINT_FILE).exists():
             raise ResultsFolderError(f"{self.out} has {len(self.records)} steps but no {CHECKPOINT_FILE} to resume "
                                      "from; pass --overwrite to start again")
-        state = torch.load(self.out / CHECKPOINT_FILE, weights_only=False, map_location=self.device)
+        try:
+            state = torch.load(self.out / CHECKPOINT_FILE, weights_only=False, map_location=self.device)
+        except Exception as err:  # truncated or not a checkpoint at all: torch and pickle raise many kinds
+            raise ResultsFolderError(f"{self.out / CHECKPOINT_FILE} is unreadable ({type(err).__name__}: {err}); "
+                                     "pass --overwrite to start the mission again") from None
+        if not isinstance(state, dict) or not {"steps", "maps", "planner"} <= set(state):
+            raise ResultsFolderError(f"{self.out / CHECKPOINT_FILE} is not a mission checkpoint; pass --overwrite to "
+                                     "start the mission again")
         if (state["steps"] == len(self.records) + 1 and "records" in state
                 and _steps_and_views(state["records"][:-1]) == _steps_and_views(self.records)):
             # interrupted between the checkpoint and the records: the checkpoint has the newer step, and its records

@@ -261,6 +261,9 @@ def build_scene(spec: SceneSpec) -> Scene:
         if obj.scale <= 0:
             raise ValueError(f"object {index} ({obj.class_name}): scale must be positive, got {obj.scale!r}")
         mesh.apply_scale(obj.scale)
+        if mesh.extents.max() < MIN_OBJECT_SIZE:
+            raise ValueError(f"object {index} ({obj.class_name}) is {mesh.extents.max():.3g} m across at scale {obj.scale!r}; "
+                             f"objects must be at least {MIN_OBJECT_SIZE} m across to be seen in the test views")
         placement = trimesh.transformations.rotation_matrix(np.radians(obj.yaw_deg), (0, 0, 1))
         placement[:2, 3] = obj.position
         mesh.apply_transform(placement)
@@ -282,10 +285,20 @@ def build_scene(spec: SceneSpec) -> Scene:
     return Scene(spec=spec, object_meshes=meshes, ground=ground_mesh())
 
 
+MIN_OBJECT_SIZE = 0.05  # metres: an object smaller than a test view's pixel at 2 m (4 cm) may never be seen
+
+
 def _require(d: dict, key: str, where: str):
     if key not in d:
         raise ValueError(f"{where}: missing field {key!r}")
     return d[key]
+
+
+def _number(value, where: str, what: str) -> float:
+    """A finite JSON number (true and false are not numbers here, although Python counts them as ints)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise ValueError(f"{where}: {what} must be a finite number, got {value!r}")
+    return float(value)
 
 
 def spec_from_json(data: dict, source: str = "scene") -> SceneSpec:
@@ -301,22 +314,28 @@ def spec_from_json(data: dict, source: str = "scene") -> SceneSpec:
         if not isinstance(o, dict):
             raise ValueError(f"{where} must be a JSON object, got {o!r}")
         position = _require(o, "position", where)
-        if not (isinstance(position, (list, tuple)) and len(position) == 2 and all(isinstance(p, (int, float)) for p in position)):
+        if not (isinstance(position, (list, tuple)) and len(position) == 2):
             raise ValueError(f"{where}: 'position' must be [x, y] in metres, got {position!r}")
+        x, y = (_number(p, where, f"'position' {axis}") for p, axis in zip(position, "xy"))
         colour = o.get("colour")
-        if colour is not None and not (len(colour) == 3 and all(0.0 <= c <= 1.0 for c in colour)):
-            raise ValueError(f"{where}: 'colour' must be three floats in [0, 1], got {colour!r}")
-        for key in ("yaw_deg", "scale"):
-            if key in o and not isinstance(o[key], (int, float)):
-                raise ValueError(f"{where}: {key!r} must be a number, got {o[key]!r}")
+        if colour is not None and not (isinstance(colour, (list, tuple)) and len(colour) == 3
+                                       and all(0.0 <= _number(c, where, "'colour'") <= 1.0 for c in colour)):
+            raise ValueError(f"{where}: 'colour' must be three numbers in [0, 1], got {colour!r}")
+        seed = o.get("seed", 0)
+        if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+            raise ValueError(f"{where}: 'seed' must be an integer in [0, 2^32), got {seed!r}")
+        try:
+            cls = class_id(_require(o, "class", where))
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{where}: 'class' {o['class']!r} is not a class ({err})") from None
         objects.append(
             ObjectSpec(
-                cls=class_id(_require(o, "class", where)),
-                position=(float(position[0]), float(position[1])),
-                yaw_deg=float(o.get("yaw_deg", 0.0)),
-                scale=float(o.get("scale", 1.0)),
+                cls=cls,
+                position=(x, y),
+                yaw_deg=_number(o.get("yaw_deg", 0.0), where, "'yaw_deg'"),
+                scale=_number(o.get("scale", 1.0), where, "'scale'"),
                 mesh=str(o.get("mesh", "procedural")),
-                seed=int(o.get("seed", 0)),
+                seed=seed,
                 colour=None if colour is None else tuple(float(c) for c in colour),
             )
         )
@@ -347,7 +366,7 @@ def load_scene_spec(name_or_path: str | Path) -> SceneSpec:
         raise FileNotFoundError(f"scene file not found: {path}")
     try:
         data = json.loads(path.read_text())
-    except json.JSONDecodeError as err:
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ValueError(f"scene file {path} is not valid JSON: {err}") from None
     return spec_from_json(data, source=str(path))
 

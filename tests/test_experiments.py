@@ -3,7 +3,7 @@ import json
 import pytest
 
 import stair_lite  # noqa: F401
-from stair_lite.experiments import Cell, SweepSpec, collect, read_table, run_sweep, summary, write_table
+from stair_lite.experiments import Cell, SweepSpec, cell_state, collect, read_table, run_cell, run_sweep, summary, write_table
 
 
 def spec(**kw):
@@ -180,3 +180,23 @@ def test_cells_run_in_this_process_at_one_thread(tmp_path, monkeypatch):
         assert seen == [1] and torch.get_num_threads() == 2
     finally:
         torch.set_num_threads(before)
+
+
+@pytest.mark.parametrize("content", ['{"steps": 5}', '[1, 2]', '{"steps": [1, 2]}'])
+def test_a_cell_with_malformed_records_is_corrupt_and_redone(tmp_path, content):
+    cell = Cell("scene1", "uniform", 0)
+    cell.folder(tmp_path).mkdir(parents=True)
+    (cell.folder(tmp_path) / "metrics.json").write_text(content)
+    assert cell_state(cell, tmp_path, 2) == "corrupt"
+    _, outcome = run_cell(cell, str(tmp_path), "smoke", 2)
+    assert outcome == "redone (was corrupt)" and cell_state(cell, tmp_path, 2) == "done"
+
+
+def test_a_cell_with_a_truncated_checkpoint_is_redone(tmp_path):
+    cell = Cell("scene1", "uniform", 0)
+    run_cell(cell, str(tmp_path), "smoke", 1)
+    checkpoint = cell.folder(tmp_path) / "checkpoint.pt"
+    checkpoint.write_bytes(checkpoint.read_bytes()[:100])
+    _, outcome = run_cell(cell, str(tmp_path), "smoke", 2)   # resuming it reads the checkpoint
+    assert outcome.startswith("redone") and "checkpoint.pt is unreadable" in outcome
+    assert cell_state(cell, tmp_path, 2) == "done"

@@ -97,8 +97,10 @@ def test_results_folder_is_protected(tmp_path):
         run(tmp_path, "x", budget=1, planner="uniform", resume=True)
 
 
-@pytest.mark.parametrize("kw,match", [({"budget": 0}, "budget must be at least 1"), ({"epsilon": -0.5}, "epsilon must be >= 0"),
-                                       ({"planner": "random"}, "unknown planner"), ({"targets": ("boat",)}, "unknown class name")])
+@pytest.mark.parametrize("kw,match", [
+    ({"budget": 0}, "budget must be a whole number of measurements from 1 to 50"), ({"budget": 51}, "from 1 to 50, got 51"),
+    ({"epsilon": -0.5}, "epsilon must be a finite number >= 0"), ({"epsilon": float("inf")}, "finite number >= 0, got inf"),
+    ({"planner": "random"}, "unknown planner"), ({"targets": ("boat",)}, "unknown class name")])
 def test_bad_mission_settings_are_named(kw, match):
     with pytest.raises(ValueError, match=match):
         Mission(MissionConfig(**kw), preset=TINY)
@@ -207,3 +209,12 @@ def test_a_folder_in_use_is_refused_until_its_mission_ends(tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(ResultsFolderError, match="is a file"):
         run(tmp_path, "file", budget=1)
+
+
+def test_a_fixed_pattern_mission_is_not_resumed_with_another_budget(tmp_path):
+    """The fixed planner's spiral is spread for its budget: resuming with another would mix two spirals."""
+    run(tmp_path, "f", budget=2, planner="fixed")
+    with pytest.raises(ResultsFolderError, match="depends on the budget, so it cannot be resumed with budget 4"):
+        run(tmp_path, "f", budget=4, planner="fixed", resume=True)
+    assert len(run(tmp_path, "s", budget=2, planner="uniform")) == 2
+    assert len(run(tmp_path, "s", budget=3, planner="uniform", resume=True)) == 3  # other planners may continue

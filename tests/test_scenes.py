@@ -206,3 +206,34 @@ def test_albedo_pattern_is_seeded_and_moves_with_its_object():
     points = np.random.default_rng(0).uniform(-0.5, 0.5, size=(500, 3))
     assert np.array_equal(surface_albedo(points, (0.5, 0.2, 0.1), 3), surface_albedo(points, (0.5, 0.2, 0.1), 3))
     assert not np.array_equal(surface_albedo(points, (0.5, 0.2, 0.1), 3), surface_albedo(points, (0.5, 0.2, 0.1), 4))
+
+
+@pytest.mark.parametrize("change, match", [
+    ({"position": [True, 0]}, r"'position' x must be a finite number, got True"),
+    ({"position": [float("nan"), 0]}, r"'position' x must be a finite number, got nan"),
+    ({"yaw_deg": float("inf")}, r"'yaw_deg' must be a finite number, got inf"),
+    ({"scale": "big"}, r"'scale' must be a finite number, got 'big'"),
+    ({"class": 2.5}, r"'class' 2.5 is not a class"),
+    ({"class": None}, r"'class' None is not a class"),
+    ({"colour": "red"}, r"'colour' must be three numbers in \[0, 1\], got 'red'"),
+    ({"colour": [0.5, "x", 0.1]}, r"'colour' must be a finite number, got 'x'"),
+    ({"seed": "abc"}, r"'seed' must be an integer in \[0, 2\^32\), got 'abc'"),
+    ({"seed": 1e20}, r"'seed' must be an integer"),
+])
+def test_a_wrong_field_is_refused_by_name_and_value(change, match):
+    data = {"targets": ["car"], "objects": [{"class": "car", "position": [0.0, 0.0], **change}]}
+    with pytest.raises(ValueError, match=match):
+        spec_from_json(data, source="my.json")
+
+
+def test_an_object_too_small_to_be_seen_is_refused():
+    spec = spec_from_json({"targets": ["car"], "objects": [{"class": "car", "position": [0.0, 0.0], "scale": 1e-6}]})
+    with pytest.raises(ValueError, match="objects must be at least 0.05 m across"):
+        build_scene(spec)
+
+
+def test_a_binary_scene_file_is_named(tmp_path):
+    bad = tmp_path / "binary.json"
+    bad.write_bytes(bytes(range(256)))
+    with pytest.raises(ValueError, match="binary.json is not valid JSON"):
+        load_scene_spec(bad)

@@ -1,0 +1,26 @@
+"""The command line refuses bad input with one line naming the problem and the value, and writes where it is told."""
+import json
+
+import pytest
+
+from stair_lite.__main__ import main
+
+
+def test_render_of_a_scene_file_writes_into_the_output_folder(tmp_path, capsys):
+    scene = tmp_path / "scenes" / "mine.json"
+    scene.parent.mkdir()
+    scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.0, 0.0]}]}))
+    assert main(["render", "--scene", str(scene), "--out", str(tmp_path / "out")]) == 0
+    assert (tmp_path / "out" / "mine_views.png").exists() and not list(scene.parent.glob("*.png"))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["run", "--budget", "60"], "budget must be a whole number of measurements from 1 to 50, got 60"),
+    (["run", "--epsilon", "inf"], "epsilon must be a finite number >= 0, got inf"),
+    (["sweep", "--workers", "0"], "--workers must be at least 1, got 0"),
+    (["sweep", "--workers", "-1"], "--workers must be at least 1, got -1"),
+])
+def test_bad_settings_are_refused_in_one_line(tmp_path, capsys, argv, message):
+    assert main(argv + ["--out", str(tmp_path / "out"), "--preset", "smoke"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err

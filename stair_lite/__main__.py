@@ -27,7 +27,7 @@ from .planners import PLANNERS, REPLAY
 def _cmd_scenes(args):
     from .scenes import list_scenes, load_scene_spec
 
-    for name in list_scenes():
+    for name in args.files or list_scenes():
         spec = load_scene_spec(name)
         classes = sorted({CLASS_NAMES[o.cls] for o in spec.objects})
         print(f"{name:22s} targets: {', '.join(CLASS_NAMES[t] for t in spec.targets):16s} "
@@ -286,7 +286,9 @@ def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m stair_lite", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
-    sub.add_parser("scenes", help="list the shipped scenes").set_defaults(func=_cmd_scenes)
+    p = sub.add_parser("scenes", help="list the shipped scenes, or describe scene files")
+    p.add_argument("files", nargs="*", help="scene files (JSON) to describe instead")
+    p.set_defaults(func=_cmd_scenes)
     p = sub.add_parser("render", help="render a scene from a few views")
     p.add_argument("--scene", default="scene1")
     p.add_argument("--out", default="runs/render")

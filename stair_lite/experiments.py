@@ -28,7 +28,7 @@ from .maps import EXPLICIT, IMPLICIT
 from .mission import (METRICS_FILE, SCORE_COLUMNS, FolderInUseError, Mission, MissionConfig, ResultsFolderError,
                       write_json_atomically)
 from .planners import PLANNERS, REPLAY
-from .scenes import list_scenes
+from .scenes import list_scenes, scene_file_hash, scene_key
 
 PAPER_SCENES = ("scene1", "scene2", "scene3", "scene4")
 SWEEP_FILE = "sweep.json"
@@ -68,7 +68,7 @@ class Cell:
     seed: int
 
     def folder(self, root: Path) -> Path:
-        return Path(root) / self.scene / self.variant / f"seed{self.seed}"
+        return Path(root) / scene_key(self.scene) / self.variant / f"seed{self.seed}"
 
     def steps(self, root: Path) -> list[dict]:
         """The stored step records of this cell under ``root``."""
@@ -150,9 +150,13 @@ class SweepSpec:
 
     def __post_init__(self):
         known = set(list_scenes())
-        bad = [s for s in self.scenes if s not in known]
+        bad = [s for s in self.scenes if s not in known and not (Path(s).suffix == ".json" and Path(s).is_file())]
         if bad:
-            raise ValueError(f"unknown scenes {bad}; shipped scenes: {', '.join(sorted(known))}")
+            raise ValueError(f"unknown scenes {bad}: neither shipped ({', '.join(sorted(known))}) nor scene files")
+        keys = [scene_key(s) for s in self.scenes]
+        if len(set(keys)) < len(keys):
+            raise ValueError(f"two scenes of {list(self.scenes)} would share a results folder (a scene file is stored "
+                             "under its name without .json): rename one")
         for v in self.variants:
             variant(v)
         if not self.seeds or min(self.seeds) < 0:
@@ -197,16 +201,27 @@ def check_sweep_folder(root: Path, spec: SweepSpec, log=print) -> None:
     root.mkdir(parents=True, exist_ok=True)
     path = root / SWEEP_FILE
     mine = {"preset": spec.preset, "budget": spec.budget, "preset_values": asdict(get_preset(spec.preset))}
+    files = {scene_key(s): scene_file_hash(s) for s in spec.scenes if scene_file_hash(s) is not None}
     if path.exists():
-        stored = json.loads(path.read_text())
+        try:
+            stored = json.loads(path.read_text())
+            stored_files = dict(stored.get("scene_files", {}))
+        except (json.JSONDecodeError, UnicodeDecodeError, AttributeError, TypeError, ValueError) as err:
+            raise ValueError(f"{path} is unreadable ({err}); restore it, or use another folder") from None
         if {k: stored.get(k) for k in mine} != json.loads(json.dumps(mine)):
             raise ValueError(f"{root} holds results of a sweep with preset {stored.get('preset')!r} and budget "
                              f"{stored.get('budget')}; use another folder for preset {spec.preset!r}, budget {spec.budget}")
+        changed = sorted(k for k in files if k in stored_files and stored_files[k] != files[k])
+        if changed:
+            raise ValueError(f"the scene files of {changed} have changed since {root} was started; restore them or use "
+                             "another folder")
         if stored.get("source_hash") != source_hash():
             log(f"warning: {root} was started with stair_lite sources {stored.get('source_hash')}, these are "
                 f"{source_hash()}: finished cells are kept; delete them to recompute with this code")
+        if set(files) - set(stored_files):
+            write_json_atomically(path, {**stored, "scene_files": {**stored_files, **files}})
     else:
-        write_json_atomically(path, {**mine, "source_hash": source_hash()})
+        write_json_atomically(path, {**mine, "source_hash": source_hash(), **({"scene_files": files} if files else {})})
 
 
 def replay_source(cell: Cell) -> Cell | None:

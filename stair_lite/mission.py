@@ -28,7 +28,7 @@ from .explicit import ExplicitMap
 from .geometry import TOP_VIEW, view_to_pose
 from .maps import IMPLICIT, MAP_KINDS, ImplicitMap, ReconstructionMap
 from .planners import make_planner, planner_class
-from .scenes import load_scene
+from .scenes import load_scene, scene_file_hash
 from .simulator import Simulator
 
 METRICS_FILE, CHECKPOINT_FILE, LOCK_FILE = "metrics.json", "checkpoint.pt", ".lock"
@@ -134,7 +134,7 @@ class Mission:
     # ----------------------------------------------------------------- results folder
     def _header(self) -> dict:
         return {"config": {**asdict(self.config), "targets": [CLASS_NAMES[t] for t in self.targets]},
-                "preset": asdict(self.preset)}
+                "preset": asdict(self.preset), "scene_file_sha256": scene_file_hash(self.config.scene)}
     def _lock_folder(self) -> None:
         """Hold the results folder's lock file until the mission finishes (``release``): a second process, or a
         second unfinished Mission of this one, is refused instead of racing this one's files."""
@@ -182,10 +182,15 @@ class Mission:
             if resume:  # a mission may be resumed with a larger budget
                 mine["config"]["budget"] = stored.get("config", {}).get("budget")
                 mine["preset"]["budget"] = stored.get("preset", {}).get("budget")
-            if {k: stored.get(k) for k in ("config", "preset")} != mine:
+            if {k: stored.get(k) for k in ("config", "preset")} != {k: mine[k] for k in ("config", "preset")}:
                 raise ResultsFolderError(
                     f"{self.out} holds results of a different mission ({stored.get('config')}); "
                     "choose another folder or pass --overwrite")
+            if stored.get("scene_file_sha256") != mine["scene_file_sha256"]:
+                raise ResultsFolderError(
+                    f"the scene file {self.config.scene} has changed since {self.out} was started (content "
+                    f"{stored.get('scene_file_sha256')}, now {mine['scene_file_sha256']}); restore it, or choose another "
+                    "folder or pass --overwrite")
             if resume and self.config.planner == "fixed" and stored["config"]["budget"] != self.config.budget:
                 raise ResultsFolderError(
                     f"{self.out} holds a fixed-pattern mission of budget {stored['config']['budget']}; its spiral of views "

@@ -11,6 +11,7 @@ view dependence either.
 from __future__ import annotations
 
 import colorsys
+import hashlib
 import json
 from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
@@ -369,6 +370,19 @@ def load_scene_spec(name_or_path: str | Path) -> SceneSpec:
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ValueError(f"scene file {path} is not valid JSON: {err}") from None
     return spec_from_json(data, source=str(path))
+
+
+def scene_key(name_or_path: str | Path) -> str:
+    """The name a scene goes by in results folders: a shipped scene's name, a scene file's stem."""
+    path = Path(name_or_path)
+    return path.stem if path.suffix == ".json" else str(name_or_path)
+
+
+def scene_file_hash(name_or_path: str | Path) -> str | None:
+    """sha256 of a scene file's content (None for a shipped scene, which the sources' hash covers): a mission or
+    sweep records it, so that one resumed after the file was edited is refused."""
+    path = Path(name_or_path)
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] if path.suffix == ".json" else None
 
 
 def load_scene(name_or_path: str | Path) -> Scene:

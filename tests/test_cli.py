@@ -24,3 +24,12 @@ def test_bad_settings_are_refused_in_one_line(tmp_path, capsys, argv, message):
     assert main(argv + ["--out", str(tmp_path / "out"), "--preset", "smoke"]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_scenes_describes_a_scene_file(tmp_path, capsys):
+    scene = tmp_path / "mine.json"
+    scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.0, 0.0]},
+                                                                 {"class": "chair", "position": [0.5, 0.0]}]}))
+    assert main(["scenes", str(scene)]) == 0
+    out = capsys.readouterr().out
+    assert "mine.json" in out and "targets: car" in out and "2 objects (car, chair)" in out

@@ -200,3 +200,18 @@ def test_a_cell_with_a_truncated_checkpoint_is_redone(tmp_path):
     _, outcome = run_cell(cell, str(tmp_path), "smoke", 2)   # resuming it reads the checkpoint
     assert outcome.startswith("redone") and "checkpoint.pt is unreadable" in outcome
     assert cell_state(cell, tmp_path, 2) == "done"
+
+
+def test_a_sweep_runs_on_a_scene_file_and_refuses_it_once_edited(tmp_path):
+    scene = tmp_path / "scenes" / "mine.json"
+    scene.parent.mkdir()
+    scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.0, 0.0]}]}))
+    spec = SweepSpec((str(scene),), ("uniform",), (0,), "smoke", 1)
+    run_sweep(spec, tmp_path / "out", progress=False)
+    assert [r["scene"] for r in collect(tmp_path / "out")] == ["mine"]
+    assert "mine" in json.loads((tmp_path / "out" / "sweep.json").read_text())["scene_files"]
+    scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.3, 0.0]}]}))
+    with pytest.raises(ValueError, match=r"scene files of \['mine'\] have changed"):
+        run_sweep(spec, tmp_path / "out", progress=False)
+    with pytest.raises(ValueError, match="neither shipped"):
+        SweepSpec((str(tmp_path / "missing.json"),), ("uniform",), (0,), "smoke", 1)

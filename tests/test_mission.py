@@ -218,3 +218,13 @@ def test_a_fixed_pattern_mission_is_not_resumed_with_another_budget(tmp_path):
         run(tmp_path, "f", budget=4, planner="fixed", resume=True)
     assert len(run(tmp_path, "s", budget=2, planner="uniform")) == 2
     assert len(run(tmp_path, "s", budget=3, planner="uniform", resume=True)) == 3  # other planners may continue
+
+
+def test_a_mission_on_an_edited_scene_file_is_not_resumed(tmp_path):
+    scene = tmp_path / "mine.json"
+    scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.0, 0.0]}]}))
+    Mission(MissionConfig(scene=str(scene), planner="uniform", budget=1), out=tmp_path / "m", preset=TINY).run()
+    scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.3, 0.0]}]}))
+    with pytest.raises(ResultsFolderError, match="mine.json has changed since"):
+        Mission(MissionConfig(scene=str(scene), planner="uniform", budget=2), out=tmp_path / "m", preset=TINY,
+                resume=True)

@@ -71,6 +71,9 @@ def _cmd_fit(args):
     from .simulator import Simulator
 
     preset = get_preset(args.preset)
+    for name in ("iterations", "rays", "views"):
+        if getattr(args, name) is not None and getattr(args, name) < 1:
+            raise ValueError(f"--{name} must be at least 1, got {getattr(args, name)}")
     if args.iterations is not None:
         preset = replace(preset, train=replace(preset.train, iterations_per_view=args.iterations))
     if args.rays is not None:
@@ -350,7 +353,7 @@ def main(argv=None):
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_headroom)
     p = sub.add_parser("claims", help="the paper's three claims checked against stored results (Markdown)")
-    p.add_argument("--results", default="data/results/sweep_lite")
+    p.add_argument("--results", default="data/results/comparison_lite")
     p.add_argument("--ablation", default=None, help="an epsilon-ablation sweep folder (claim iii)")
     p.set_defaults(func=_cmd_claims)
     args = parser.parse_args(argv)

@@ -211,8 +211,15 @@ class ReplayPlanner(Planner):
     @classmethod
     def from_file(cls, cfg: PlanConfig, rng: np.random.Generator, path: str | Path, budget: int) -> "ReplayPlanner":
         """Follow the views of a mission's ``metrics.json``; it must hold at least ``budget`` of them."""
-        stored = json.loads(Path(path).read_text())
-        views = np.array([r["view_rad"] for r in stored["steps"]])
+        try:
+            views = np.array([r["view_rad"] for r in json.loads(Path(path).read_text())["steps"]], dtype=float)
+        except FileNotFoundError:
+            raise FileNotFoundError(f"replay file not found: {path}") from None
+        except (ValueError, UnicodeDecodeError, KeyError, TypeError, IndexError) as err:
+            raise ValueError(f"{path} is not a mission's metrics.json (no list of steps with views): "
+                             f"{type(err).__name__}: {err}") from None
+        if views.ndim != 2 or views.shape[1:] != (2,) or not np.all(np.isfinite(views)):
+            raise ValueError(f"{path} is not a mission's metrics.json: its views are not (elevation, azimuth) pairs")
         if len(views) < budget:
             raise ValueError(f"{path} holds {len(views)} views, fewer than the budget {budget}")
         return cls(cfg, rng, views)

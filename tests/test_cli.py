@@ -33,3 +33,24 @@ def test_scenes_describes_a_scene_file(tmp_path, capsys):
     assert main(["scenes", str(scene)]) == 0
     out = capsys.readouterr().out
     assert "mine.json" in out and "targets: car" in out and "2 objects (car, chair)" in out
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["fit", "--iterations", "0"], "--iterations must be at least 1, got 0"),
+    (["fit", "--rays", "0"], "--rays must be at least 1, got 0"),
+    (["fit", "--views", "0"], "--views must be at least 1, got 0"),
+])
+def test_fit_refuses_an_empty_schedule(capsys, argv, message):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("content", ["not json", '{"steps": 5}', '{"steps": [{"view_rad": "x"}]}', '[1]'])
+def test_a_garbage_replay_file_is_named(tmp_path, capsys, content):
+    replay = tmp_path / "garbage.json"
+    replay.write_text(content)
+    code = main(["run", "--planner", "replay", "--replay", str(replay), "--preset", "smoke", "--budget", "1",
+                 "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and "garbage.json is not a mission's metrics.json" in err and "Traceback" not in err

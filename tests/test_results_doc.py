@@ -11,5 +11,6 @@ BEGIN, END = "<!-- claims: generated", "<!-- claims: end -->"
 def test_results_md_quotes_the_computed_verdicts():
     text = RESULTS_MD.read_text()
     quoted = text[text.index(BEGIN):text.index(END)].split("\n", 1)[1].rstrip("\n")
-    computed = markdown_report(collect(RESULTS_DIR / "sweep_lite"), collect(RESULTS_DIR / "ablation_lite_v2")).rstrip("\n")
+    computed = markdown_report(collect(RESULTS_DIR / "comparison_lite"),
+                               collect(RESULTS_DIR / "ablation_hidden_chair_lite")).rstrip("\n")
     assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite claims ...` between its markers"

@@ -132,11 +132,12 @@ def _cmd_run(args):
     tqdm.write(header)
 
     def row(r):
-        u = f"{r['utility']:9.1f}" if r["utility"] is not None else f"{'-':>9}"
-        loss = f"{r['loss']:7.4f}" if r["loss"] is not None else f"{'-':>7}"
+        def cell(key, width, decimals):  # None: no utility before the first plan, no loss of STE, a null score
+            return f"{r[key]:{width}.{decimals}f}" if r[key] is not None else f"{'-':>{width}}"
         t = r["time_s"]
-        tqdm.write(f"{r['step']:4d} {r['view_deg'][0]:6.1f} {r['view_deg'][1]:6.1f} {u} {loss} {r['psnr']:6.2f} {r['psnr_clean']:6.2f} "
-                   f"{r['precision']:5.3f} {r['completeness']:5.3f} {r['f1']:5.3f} {r['f1_5cm']:6.3f} {r['chamfer']:6.3f} {t['plan']:6.2f} {t['train']:7.2f} {t['evaluate']:6.2f}")
+        tqdm.write(f"{r['step']:4d} {r['view_deg'][0]:6.1f} {r['view_deg'][1]:6.1f} {cell('utility', 9, 1)} {cell('loss', 7, 4)} "
+                   f"{cell('psnr', 6, 2)} {cell('psnr_clean', 6, 2)} {cell('precision', 5, 3)} {cell('completeness', 5, 3)} "
+                   f"{cell('f1', 5, 3)} {cell('f1_5cm', 6, 3)} {cell('chamfer', 6, 3)} {t['plan']:6.2f} {t['train']:7.2f} {t['evaluate']:6.2f}")
         bar.update(1)
 
     for r in mission.records:
@@ -174,8 +175,8 @@ def _cmd_sweep(args):
     variants = {"all": ALL_VARIANTS, "base": BASE_VARIANTS}.get(args.planners, tuple(args.planners.split(",")))
     if args.seeds < 1:
         raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
-    if args.first_seed < 0:
-        raise ValueError(f"--first-seed must be >= 0, got {args.first_seed}")
+    if not 0 <= args.first_seed <= 2**32 - args.seeds:
+        raise ValueError(f"--first-seed must be from 0 to 2**32 - --seeds, got {args.first_seed}")
     if args.workers < 1:
         raise ValueError(f"--workers must be at least 1, got {args.workers}")
     spec = SweepSpec(scenes, variants, tuple(range(args.first_seed, args.first_seed + args.seeds)), args.preset, args.budget)
@@ -359,7 +360,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     try:
         return args.func(args) or 0
-    except (ValueError, FileNotFoundError) as err:
+    except (ValueError, OSError) as err:  # bad input, or a folder that cannot be written: one line, no traceback
         print(f"error: {err}", file=sys.stderr)
         return 2
 

@@ -305,8 +305,10 @@ class dask_client:
         with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
             if self.scheduler is None:
                 self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                            dashboard_address=None, silence_logs=logging.ERROR)
+                                            dashboard_address=":0", silence_logs=logging.ERROR)
             self.client = Client(self.scheduler or self.cluster)
+        if self.cluster is not None:
+            self.client.run(_ignore_interrupts)
         self._restore_environment()
         return self.client
 
@@ -321,6 +323,14 @@ class dask_client:
         undo it, or every process started from here later (a notebook kernel) runs on one thread."""
         os.environ.clear()
         os.environ.update(self.environ)
+
+
+def _ignore_interrupts() -> None:
+    """Run on a local cluster's workers: Ctrl-C reaches every process of the terminal's group, and the sweep's
+    own process stops the workers (no worker should die with a traceback of its own)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def run_on_cluster(client, release, done, root: Path, spec: SweepSpec, device: str) -> None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import fcntl
 import json
 import os
+import shutil
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -59,8 +60,8 @@ class MissionConfig:
         cls = planner_class(self.planner, self.replay)
         if self.mapper is not None and self.mapper not in MAP_KINDS:
             raise ValueError(f"unknown mapper {self.mapper!r}; choose one of {', '.join(MAP_KINDS)}")
-        if self.seed < 0:
-            raise ValueError(f"seed must be >= 0, got {self.seed!r}")
+        if not 0 <= self.seed < 2**32:
+            raise ValueError(f"seed must be a whole number from 0 to 2**32 - 1, got {self.seed!r}")
         preset = get_preset(self.preset)
         resolved = {"budget": preset.budget if self.budget is None else self.budget,
                     "epsilon": preset.plan.epsilon if self.epsilon is None else self.epsilon,
@@ -75,10 +76,25 @@ class MissionConfig:
 
 
 def write_json_atomically(path: Path, data) -> None:
-    """Write JSON to a temporary file, then rename it over ``path``: readers never see a partial file."""
+    """Write JSON to a temporary file, then rename it over ``path``: readers never see a partial file. A score
+    that is not a finite number (the PSNR of a perfect image) is written as null: NaN is not JSON."""
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1))
+    try:
+        tmp.write_text(json.dumps(_finite_or_null(data), indent=1, allow_nan=False))
+    except OSError as err:
+        tmp.unlink(missing_ok=True)
+        raise OSError(f"could not write {path}: {err.strerror or err}") from None
     os.replace(tmp, path)
+
+
+def _finite_or_null(value):
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite_or_null(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_or_null(v) for v in value]
+    return value
 
 
 def _steps_and_views(records: list[dict]) -> list[tuple]:
@@ -211,7 +227,13 @@ class Mission:
         state = {"maps": {kind: m.state_dict() for kind, m in self.maps.items()},
                  "planner": self.planner.state_dict(), "steps": len(self.records), "records": self.records}
         tmp = self.out / (CHECKPOINT_FILE + ".tmp")
-        torch.save(state, tmp)
+        try:
+            torch.save(state, tmp)
+        except (OSError, RuntimeError) as err:  # a full disk surfaces as torch's RuntimeError
+            tmp.unlink(missing_ok=True)
+            free = shutil.disk_usage(self.out).free
+            raise OSError(f"could not write {tmp} ({free / 2**20:.1f} MiB free on its disk: {err}); the "
+                          f"{self.saved_steps} steps saved before are kept, continue with --resume") from None
         os.replace(tmp, self.out / CHECKPOINT_FILE)  # from here the step is saved: the checkpoint holds the records too
         self.saved_steps = len(self.records)
         write_json_atomically(self.out / METRICS_FILE, {**self._header(), "steps": self.records})

@@ -19,6 +19,8 @@ def test_render_of_a_scene_file_writes_into_the_output_folder(tmp_path, capsys):
     (["run", "--epsilon", "inf"], "epsilon must be a finite number >= 0, got inf"),
     (["sweep", "--workers", "0"], "--workers must be at least 1, got 0"),
     (["sweep", "--workers", "-1"], "--workers must be at least 1, got -1"),
+    (["run", "--seed", str(10**20)], f"seed must be a whole number from 0 to 2**32 - 1, got {10**20}"),
+    (["sweep", "--first-seed", str(2**32)], f"--first-seed must be from 0 to 2**32 - --seeds, got {2**32}"),
 ])
 def test_bad_settings_are_refused_in_one_line(tmp_path, capsys, argv, message):
     assert main(argv + ["--out", str(tmp_path / "out"), "--preset", "smoke"]) == 2
@@ -54,3 +56,12 @@ def test_a_garbage_replay_file_is_named(tmp_path, capsys, content):
                  "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
     assert code == 2 and "garbage.json is not a mission's metrics.json" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("argv", [["run", "--preset", "smoke", "--budget", "1"], ["render"],
+                                  ["sweep", "--preset", "smoke", "--budget", "1", "--scenes", "scene1", "--planners", "uniform"]])
+def test_an_output_folder_under_a_file_is_named(tmp_path, capsys, argv):
+    (tmp_path / "file").write_text("")
+    assert main(argv + ["--out", str(tmp_path / "file" / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path / 'file' / 'out'}" in err and "Not a directory" in err and "Traceback" not in err

@@ -1,4 +1,6 @@
 import json
+import os
+from pathlib import Path
 
 import pytest
 
@@ -215,3 +217,44 @@ def test_a_sweep_runs_on_a_scene_file_and_refuses_it_once_edited(tmp_path):
         run_sweep(spec, tmp_path / "out", progress=False)
     with pytest.raises(ValueError, match="neither shipped"):
         SweepSpec((str(tmp_path / "missing.json"),), ("uniform",), (0,), "smoke", 1)
+
+
+@pytest.mark.parametrize("stop", ["ctrl-c twice", "SIGTERM", "SIGKILL"])
+def test_a_stopped_sweep_stops_its_workers(tmp_path, stop):
+    """A 2-worker sweep from the command line, stopped once its first step is saved: Ctrl-C (sent to the
+    terminal's whole process group, twice), SIGTERM or SIGKILL of the sweep's process. Within a minute no
+    worker is left to go on with the queue (so no cell finishes after the stop) and nothing prints a traceback."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import psutil
+
+    command = [sys.executable, "-m", "stair_lite", "sweep", "--scenes", "scene1", "--planners", "uniform,fixed",
+               "--seeds", "3", "--budget", "2", "--preset", "smoke", "--workers", "2", "--quiet", "--out", str(tmp_path)]
+    sweep = subprocess.Popen(command, cwd=Path(__file__).parents[1], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        deadline = time.time() + 300
+        while not list(tmp_path.glob("*/*/seed*/metrics.json")) and time.time() < deadline:
+            time.sleep(0.1)
+        workers = psutil.Process(sweep.pid).children(recursive=True)
+        assert list(tmp_path.glob("*/*/seed*/metrics.json")) and workers
+        if stop == "ctrl-c twice":
+            os.killpg(sweep.pid, signal.SIGINT)
+            time.sleep(0.3)
+            os.killpg(sweep.pid, signal.SIGINT)
+        else:
+            sweep.send_signal(getattr(signal, stop))
+        output = sweep.communicate(timeout=60)[0]
+        gone, alive = psutil.wait_procs(workers, timeout=60)
+        assert not alive, f"workers still running after the sweep stopped: {alive}"
+    finally:
+        for process in psutil.Process(sweep.pid).children(recursive=True) if sweep.poll() is None else []:
+            process.kill()
+        sweep.kill()
+    assert "Traceback" not in output, output
+    if stop != "SIGKILL":
+        assert sweep.returncode == 130 and "interrupted: finished cells are kept" in output, output
+    finished = [c for c in spec(variants=("uniform", "fixed"), seeds=(0, 1, 2)).cells() if cell_state(c, tmp_path, 2) == "done"]
+    assert len(finished) < 6, "the sweep ended before it was stopped: the test proves nothing"

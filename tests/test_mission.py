@@ -228,3 +228,34 @@ def test_a_mission_on_an_edited_scene_file_is_not_resumed(tmp_path):
     with pytest.raises(ResultsFolderError, match="mine.json has changed since"):
         Mission(MissionConfig(scene=str(scene), planner="uniform", budget=2), out=tmp_path / "m", preset=TINY,
                 resume=True)
+
+
+def test_a_full_disk_is_named_and_the_saved_steps_resume(tmp_path, monkeypatch):
+    """On a full disk torch.save fails with "unexpected pos 64 vs 0": the error must name the file and the space
+    left, leave no partial file behind, and the steps saved before must resume."""
+    run(tmp_path, "x", budget=1, planner="uniform")
+    from stair_lite import mission as mission_module
+
+    def disk_full(state, path):
+        open(path, "wb").close()
+        raise RuntimeError("[enforce fail at inline_container.cc:672] . unexpected pos 64 vs 0")
+
+    monkeypatch.setattr(mission_module.torch, "save", disk_full)
+    with pytest.raises(OSError, match=r"could not write .*checkpoint.pt.tmp \([0-9.]+ MiB free on its disk: .*"
+                                      r"the 1 steps saved before are kept, continue with --resume"):
+        run(tmp_path, "x", budget=2, planner="uniform", resume=True)
+    assert not (tmp_path / "x" / "checkpoint.pt.tmp").exists()
+    monkeypatch.undo()
+    assert len(run(tmp_path, "x", budget=2, planner="uniform", resume=True)) == 2
+
+
+def test_scores_that_are_not_finite_are_written_as_json_null(tmp_path):
+    from stair_lite.mission import write_json_atomically
+
+    def refuse(constant):
+        raise ValueError(f"{constant} is not JSON")
+
+    write_json_atomically(tmp_path / "m.json", {"steps": [{"psnr": float("inf"), "psnr_clean": float("nan"), "f1": 0.5,
+                                                           "view_rad": (0.1, float("-inf"))}]})
+    stored = json.loads((tmp_path / "m.json").read_text(), parse_constant=refuse)
+    assert stored == {"steps": [{"psnr": None, "psnr_clean": None, "f1": 0.5, "view_rad": [0.1, None]}]}

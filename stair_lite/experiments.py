@@ -308,7 +308,7 @@ class dask_client:
                                             dashboard_address=":0", silence_logs=logging.ERROR)
             self.client = Client(self.scheduler or self.cluster)
         if self.cluster is not None:
-            self.client.run(_ignore_interrupts)
+            self.client.run(_quiet_worker)
         self._restore_environment()
         return self.client
 
@@ -325,12 +325,16 @@ class dask_client:
         os.environ.update(self.environ)
 
 
-def _ignore_interrupts() -> None:
-    """Run on a local cluster's workers: Ctrl-C reaches every process of the terminal's group, and the sweep's
-    own process stops the workers (no worker should die with a traceback of its own)."""
+def _quiet_worker() -> None:
+    """Run on a local cluster's workers. Ctrl-C reaches every process of the terminal's group, but the sweep's
+    own process stops the workers, so they ignore it. And a worker's own log is silenced: a cell that fails
+    comes back to the sweep with its exception, while a worker whose sweep was killed (SIGKILL) would only
+    log tracebacks about the scheduler it lost before it exits."""
+    import logging
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
 
 
 def run_on_cluster(client, release, done, root: Path, spec: SweepSpec, device: str) -> None:

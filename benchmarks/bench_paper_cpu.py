@@ -109,8 +109,8 @@ def whole_mission(preset, scene: str, budget: int, iterations: int) -> None:
 
 
 def peak_gb() -> float:
-    """The process's peak resident memory so far."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+    """The process's peak resident memory so far, in GB (10**9 bytes; Linux reports kibibytes)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9
 
 
 if __name__ == "__main__":

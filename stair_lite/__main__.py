@@ -22,6 +22,7 @@ import stair_lite  # noqa: F401  (sets the offscreen platform before pyrender lo
 from .classes import CLASS_NAMES
 from .maps import MAP_KINDS
 from .planners import PLANNERS, REPLAY
+from .segmenter import LABEL_NOISE
 
 
 def _cmd_scenes(args):
@@ -68,9 +69,11 @@ def _cmd_fit(args):
     from .geometry import fibonacci_hemisphere, view_to_pose
     from .maps import ImplicitMap
     from .scenes import load_scene
+    from .segmenter import NoisySegmenter
     from .simulator import Simulator
 
     preset = get_preset(args.preset)
+    segmenter = NoisySegmenter(args.label_noise, seed=args.seed)
     for name in ("iterations", "rays", "views"):
         if getattr(args, name) is not None and getattr(args, name) < 1:
             raise ValueError(f"--{name} must be at least 1, got {getattr(args, name)}")
@@ -89,10 +92,11 @@ def _cmd_fit(args):
     evaluator = Evaluator(sim, targets, preset, seed=args.seed)
     views = fibonacci_hemisphere(args.views, azimuth_offset=0.3)
     print(f"preset {preset.name}: grid {preset.field.grid_resolution}^3, {preset.train.iterations_per_view} "
-          f"iterations/view, {preset.train.rays_new}+{preset.train.rays_replay} rays; scene {scene.name}, targets {targets}")
+          f"iterations/view, {preset.train.rays_new}+{preset.train.rays_replay} rays; scene {scene.name}, targets {targets}, "
+          f"label noise {args.label_noise}")
     start = time.perf_counter()
     for i, (el, az) in enumerate(views):
-        history = implicit.integrate(sim.render(view_to_pose(el, az)))
+        history = implicit.integrate(segmenter(sim.render(view_to_pose(el, az)), step=i + 1))
         print(f"view {i + 1:2d}/{len(views)} (el {np.degrees(el):4.1f}, az {np.degrees(az):5.1f}): "
               f"loss {history[-1].total:.4f}", flush=True)
     t_train = time.perf_counter() - start
@@ -120,12 +124,14 @@ def _cmd_run(args):
 
     config = MissionConfig(scene=args.scene, planner=args.planner, seed=args.seed, preset=args.preset,
                            targets=tuple(args.targets.split(",")) if args.targets else None,
-                           budget=args.budget, epsilon=args.epsilon, mapper=args.mapper, replay=args.replay)
+                           budget=args.budget, epsilon=args.epsilon, mapper=args.mapper, replay=args.replay,
+                           label_noise=args.label_noise)
     mission = Mission(config, out=args.out, resume=args.resume, overwrite=args.overwrite, device=args.device)
     out = Path(args.out)
     done = len(mission.records)
     print(f"mission: scene {config.scene}, targets {', '.join(CLASS_NAMES[t] for t in mission.targets)}, planner "
-          f"{config.planner}, seed {config.seed}, preset {config.preset}, budget {config.budget}"
+          f"{config.planner}, seed {config.seed}, preset {config.preset}, budget {config.budget}, label noise "
+          f"{config.label_noise}"
           + (f" (resuming after step {done})" if done else ""))
     header = f"{'step':>4} {'elev':>6} {'azim':>6} {'utility':>9} {'loss':>7} {'PSNR':>6} {'clean':>6} {'prec':>5} {'compl':>5} {'F1':>5} {'F1 5cm':>6} {'chamf':>6} {'plan s':>6} {'train s':>7} {'eval s':>6}"
     bar = tqdm(total=config.budget, initial=done, desc="steps", unit="step", leave=False, disable=args.quiet)
@@ -179,11 +185,12 @@ def _cmd_sweep(args):
         raise ValueError(f"--first-seed must be from 0 to 2**32 - --seeds, got {args.first_seed}")
     if args.workers < 1:
         raise ValueError(f"--workers must be at least 1, got {args.workers}")
-    spec = SweepSpec(scenes, variants, tuple(range(args.first_seed, args.first_seed + args.seeds)), args.preset, args.budget)
+    spec = SweepSpec(scenes, variants, tuple(range(args.first_seed, args.first_seed + args.seeds)), args.preset, args.budget,
+                     args.label_noise)
     where = (f"on the Dask cluster at {args.scheduler}" if args.scheduler else
              f"on a local Dask cluster of {args.workers} workers" if args.workers > 1 else "in this process")
     print(f"sweep: {len(spec.cells())} cells ({len(scenes)} scenes x {len(variants)} variants x {args.seeds} seeds), "
-          f"preset {args.preset}, {where}, results in {args.out}")
+          f"preset {args.preset}, label noise {args.label_noise}, {where}, results in {args.out}")
     start = time.perf_counter()
     signal.signal(signal.SIGTERM, _interrupt)  # a terminated sweep stops its workers like Ctrl-C
     try:
@@ -308,6 +315,8 @@ def main(argv=None):
     p.add_argument("--eval-preset", default=None, choices=["lite", "paper"], help="evaluate with another preset's protocol")
     p.add_argument("--out", default=None, help="folder for the target mesh (PLY)")
     p.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")
+    p.add_argument("--label-noise", default="none", choices=list(LABEL_NOISE), help="the segmenter's noise level "
+                   "(segmenter.py; default: exact labels, as the paper)")
     p.set_defaults(func=_cmd_fit)
     p = sub.add_parser("run", help="run one active reconstruction mission")
     p.add_argument("--scene", default="scene1")
@@ -326,6 +335,8 @@ def main(argv=None):
     p.add_argument("--overwrite", action="store_true", help="replace the results found in --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")
+    p.add_argument("--label-noise", default="none", choices=list(LABEL_NOISE), help="the segmenter's noise level "
+                   "(segmenter.py; default: exact labels, as the paper)")
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser("sweep", help="missions over scenes x planner variants x seeds")
     p.add_argument("--scenes", default="all", help="'all' (scene1-4) or comma-separated scene names")
@@ -340,6 +351,8 @@ def main(argv=None):
     p.add_argument("--out", default="runs/sweep")
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")
+    p.add_argument("--label-noise", default="none", choices=list(LABEL_NOISE), help="the segmenter's noise level "
+                   "(segmenter.py; default: exact labels, as the paper)")
     p.set_defaults(func=_cmd_sweep)
     p = sub.add_parser("report", help="results table, curves and summary of a sweep folder")
     p.add_argument("--results", default="runs/sweep")

@@ -27,8 +27,9 @@ from .config import get_preset
 from .maps import EXPLICIT, IMPLICIT
 from .mission import (METRICS_FILE, SCORE_COLUMNS, FolderInUseError, Mission, MissionConfig, ResultsFolderError,
                       write_json_atomically)
-from .planners import PLANNERS, REPLAY
+from .planners import PAPER_PLANNERS, PLANNERS, REPLAY
 from .scenes import list_scenes, scene_file_hash, scene_key
+from .segmenter import EXACT, label_noise
 
 PAPER_SCENES = ("scene1", "scene2", "scene3", "scene4")
 SWEEP_FILE = "sweep.json"
@@ -56,9 +57,9 @@ class Variant:
 VARIANTS = {**{name: Variant(name, name) for name in PLANNERS},
             "stair_explicit": Variant("stair_explicit", REPLAY, EXPLICIT, replays="stair"),
             "ste_implicit": Variant("ste_implicit", REPLAY, IMPLICIT, replays="ste")}
-BASE_VARIANTS = tuple(PLANNERS)
+BASE_VARIANTS = tuple(PAPER_PLANNERS)
 CROSS_VALIDATION = {v.name: v.replays for v in VARIANTS.values() if v.replays}  # variant -> the variant it replays
-ALL_VARIANTS = tuple(VARIANTS)
+ALL_VARIANTS = (*BASE_VARIANTS, *CROSS_VALIDATION)  # the paper's comparison ("all"); the others are named
 
 
 @dataclass(frozen=True)
@@ -91,15 +92,16 @@ def variant(name: str) -> Variant:
             epsilon = -1.0
         if epsilon >= 0:
             return Variant(name, "stair", epsilon=epsilon)
-    raise ValueError(f"unknown planner variant {name!r}; choose from {', '.join(ALL_VARIANTS)} or {EPSILON_PREFIX}<value>")
+    raise ValueError(f"unknown planner variant {name!r}; choose from {', '.join(VARIANTS)} or {EPSILON_PREFIX}<value>")
 
 
-def mission_config(cell: Cell, root: Path, preset: str, budget: int | None = None) -> MissionConfig:
+def mission_config(cell: Cell, root: Path, preset: str, budget: int | None = None,
+                   label_noise: str = EXACT) -> MissionConfig:
     """The mission a cell runs."""
     v = variant(cell.variant)
     replay = str(Cell(cell.scene, v.replays, cell.seed).folder(root) / METRICS_FILE) if v.replays else None
     return MissionConfig(scene=cell.scene, planner=v.planner, seed=cell.seed, preset=preset, budget=budget,
-                         epsilon=v.epsilon, mapper=v.mapper, replay=replay)
+                         epsilon=v.epsilon, mapper=v.mapper, replay=replay, label_noise=label_noise)
 
 
 def cell_state(cell: Cell, root: Path, budget: int) -> str:
@@ -117,16 +119,16 @@ def cell_state(cell: Cell, root: Path, budget: int) -> str:
 
 
 def run_cell(cell: Cell, root: str, preset: str, budget: int, threads: int | None = None,
-             device: str = "cpu") -> tuple[Cell, str]:
+             device: str = "cpu", label_noise: str = EXACT) -> tuple[Cell, str]:
     """Run (or resume) one cell with ``threads`` torch threads (None: as the process is set; the thread count is
-    restored after); a corrupt or unresumable cell is redone from scratch."""
+    restored after) and the segmenter's ``label_noise``; a corrupt or unresumable cell is redone from scratch."""
     import torch
 
     previous = torch.get_num_threads()
     if threads:
         torch.set_num_threads(threads)
     root = Path(root)
-    config = mission_config(cell, root, preset, budget)
+    config = mission_config(cell, root, preset, budget, label_noise)
     state = cell_state(cell, root, budget)
     try:
         Mission(config, out=cell.folder(root), resume=state == "partial", overwrite=state == "corrupt", device=device).run()
@@ -147,8 +149,10 @@ class SweepSpec:
     seeds: tuple[int, ...]
     preset: str = "lite"
     budget: int | None = None  # None: the preset's
+    label_noise: str = EXACT  # the segmenter's noise level in every cell (segmenter.py)
 
     def __post_init__(self):
+        label_noise(self.label_noise)
         known = set(list_scenes())
         bad = [s for s in self.scenes if s not in known and not (Path(s).suffix == ".json" and Path(s).is_file())]
         if bad:
@@ -200,17 +204,19 @@ def check_sweep_folder(root: Path, spec: SweepSpec, log=print) -> None:
     when the package's code has changed since the folder's first cells were run."""
     root.mkdir(parents=True, exist_ok=True)
     path = root / SWEEP_FILE
-    mine = {"preset": spec.preset, "budget": spec.budget, "preset_values": asdict(get_preset(spec.preset))}
+    mine = {"preset": spec.preset, "budget": spec.budget, "preset_values": asdict(get_preset(spec.preset)),
+            "label_noise": spec.label_noise}
     files = {scene_key(s): scene_file_hash(s) for s in spec.scenes if scene_file_hash(s) is not None}
     if path.exists():
         try:
-            stored = json.loads(path.read_text())
+            stored = {"label_noise": EXACT, **json.loads(path.read_text())}  # folders from before noisy labels: exact
             stored_files = dict(stored.get("scene_files", {}))
         except (json.JSONDecodeError, UnicodeDecodeError, AttributeError, TypeError, ValueError) as err:
             raise ValueError(f"{path} is unreadable ({err}); restore it, or use another folder") from None
         if {k: stored.get(k) for k in mine} != json.loads(json.dumps(mine)):
-            raise ValueError(f"{root} holds results of a sweep with preset {stored.get('preset')!r} and budget "
-                             f"{stored.get('budget')}; use another folder for preset {spec.preset!r}, budget {spec.budget}")
+            raise ValueError(f"{root} holds results of a sweep with preset {stored.get('preset')!r}, budget "
+                             f"{stored.get('budget')} and label noise {stored.get('label_noise')!r}; use another folder "
+                             f"for preset {spec.preset!r}, budget {spec.budget}, label noise {spec.label_noise!r}")
         changed = sorted(k for k in files if k in stored_files and stored_files[k] != files[k])
         if changed:
             raise ValueError(f"the scene files of {changed} have changed since {root} was started; restore them or use "
@@ -277,7 +283,7 @@ def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: boo
         if workers <= 1 and scheduler is None:
             while ready := release():
                 for c in ready:  # one torch thread, as a cluster's workers: float sums depend on the thread count
-                    done(run_cell(c, str(root), spec.preset, spec.budget, threads=1, device=device))
+                    done(run_cell(c, str(root), spec.preset, spec.budget, 1, device, spec.label_noise))
         else:
             with dask_client(workers, scheduler) as client:
                 run_on_cluster(client, release, done, root, spec, device)
@@ -349,7 +355,7 @@ def run_on_cluster(client, release, done, root: Path, spec: SweepSpec, device: s
         pending.extend(release())
         slots = max(1, sum(client.nthreads().values())) - queue.count()
         for c in pending[:max(slots, 0)]:
-            future = client.submit(run_cell, c, str(root), spec.preset, spec.budget, 1, device, pure=False,
+            future = client.submit(run_cell, c, str(root), spec.preset, spec.budget, 1, device, spec.label_noise, pure=False,
                                    key=f"{c.scene}-{c.variant}-seed{c.seed}-{uuid.uuid4().hex[:8]}")
             cell_of[future] = c
             queue.add(future)

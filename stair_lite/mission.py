@@ -30,6 +30,7 @@ from .geometry import TOP_VIEW, view_to_pose
 from .maps import IMPLICIT, MAP_KINDS, ImplicitMap, ReconstructionMap
 from .planners import make_planner, planner_class
 from .scenes import load_scene, scene_file_hash
+from .segmenter import EXACT, NoisySegmenter, label_noise
 from .simulator import Simulator
 
 METRICS_FILE, CHECKPOINT_FILE, LOCK_FILE = "metrics.json", "checkpoint.pt", ".lock"
@@ -55,11 +56,13 @@ class MissionConfig:
     epsilon: float | None = None
     mapper: str | None = None  # "implicit" (the field) or "explicit" (STE's voxel map)
     replay: str | None = None  # with planner "replay": a metrics.json whose views are followed
+    label_noise: str = EXACT  # the segmenter's noise level (segmenter.py; the evaluation stays exact)
 
     def __post_init__(self):
         cls = planner_class(self.planner, self.replay)
         if self.mapper is not None and self.mapper not in MAP_KINDS:
             raise ValueError(f"unknown mapper {self.mapper!r}; choose one of {', '.join(MAP_KINDS)}")
+        label_noise(self.label_noise)  # checks the level's name
         if not 0 <= self.seed < 2**32:
             raise ValueError(f"seed must be a whole number from 0 to 2**32 - 1, got {self.seed!r}")
         preset = get_preset(self.preset)
@@ -130,6 +133,7 @@ class Mission:
         try:
             self._prepare_folder(resume, overwrite)
             self.simulator = Simulator(self.scene)
+            self.segmenter = NoisySegmenter(config.label_noise, seed=config.seed)
             kinds = {config.mapper} | ({self.planner.reads} if self.planner.reads else set())
             self.maps: dict[str, ReconstructionMap] = {
                 kind: MAP_CLASSES[kind].from_preset(self.preset, seed=config.seed, device=self.device) for kind in sorted(kinds)}
@@ -149,7 +153,10 @@ class Mission:
 
     # ----------------------------------------------------------------- results folder
     def _header(self) -> dict:
-        return {"config": {**asdict(self.config), "targets": [CLASS_NAMES[t] for t in self.targets]},
+        config = asdict(self.config)
+        if config["label_noise"] == EXACT:  # written as before noisy labels existed: those missions stay resumable
+            del config["label_noise"]
+        return {"config": {**config, "targets": [CLASS_NAMES[t] for t in self.targets]},
                 "preset": asdict(self.preset), "scene_file_sha256": scene_file_hash(self.config.scene)}
     def _lock_folder(self) -> None:
         """Hold the results folder's lock file until the mission finishes (``release``): a second process, or a
@@ -260,8 +267,8 @@ class Mission:
         if state["steps"] != len(self.records):
             raise ResultsFolderError(f"checkpoint in {self.out} is for step {state['steps']}, metrics for step "
                                      f"{len(self.records)}; pass --overwrite to start again")
-        for record in self.records:  # the simulator is deterministic: measure the same views again
-            measurement = self.simulator.render(view_to_pose(*record["view_rad"]))
+        for record in self.records:  # the simulator and segmenter are deterministic: measure the same views again
+            measurement = self.segmenter(self.simulator.render(view_to_pose(*record["view_rad"])), record["step"])
             for m in self.maps.values():
                 m.add_measurement(measurement)
             self.visited.append(np.array(record["view_rad"]))
@@ -287,7 +294,7 @@ class Mission:
         release_freed_memory()  # between phases (allocator.py): the peak is the largest phase's, not their sum
         start = time.perf_counter()
         pose = view_to_pose(*view)
-        measurement = self.simulator.render(pose)
+        measurement = self.segmenter(self.simulator.render(pose), number)
         t_measure = time.perf_counter() - start
         start = time.perf_counter()
         history = [loss for m in self.maps.values() for loss in m.integrate(measurement)]

@@ -7,6 +7,8 @@ way. Every mission starts from the top view; planners never return a view alread
 
   stair        U = U_et + epsilon U_er, two-stage candidates (N_uni uniform, top K, N_re around each)
   exploration  the same candidates scored by U_er alone
+  stair_soft, stair_semantic  beyond the paper (notebook 07): STAIR with the soft target mask, or with the
+               semantic-uncertainty term lambda U_sem (``UTILITY_VARIANTS``)
   fixed        a spiral down the hemisphere, no map feedback (the reference code's Fibonacci spiral)
   max_distance the random candidate farthest (mean squared distance) from the visited cameras
   uniform      a random view, area-uniform on the hemisphere
@@ -95,12 +97,12 @@ class UtilityPlanner(Planner):
     reads = "implicit"
 
     def __init__(self, cfg: PlanConfig, rng: np.random.Generator, options: UtilityOptions | None = None,
-                 exploration_only: bool = False, exact: bool = False):
+                 exploration_only: bool = False, exact: bool = False, name: str | None = None):
         super().__init__(cfg, rng)
         self.options = options or UtilityOptions(epsilon=cfg.epsilon)
         self.exploration_only = exploration_only
         self.exact = exact
-        self.name = "exploration" if exploration_only else "stair"
+        self.name = name or ("exploration" if exploration_only else "stair")
         self.intrinsics = Intrinsics.from_fov().scaled(cfg.candidate_scale)
 
     def _value(self, scores: Scores) -> np.ndarray:
@@ -118,7 +120,7 @@ class UtilityPlanner(Planner):
         ) if cfg.n_resample > 0 and order else np.zeros((0, 2))
         second = score_views(source, resampled, targets, self.intrinsics, cfg.candidate_samples, self.options)
         candidates = np.concatenate([uniform, resampled])
-        scores = Scores(*(np.concatenate([getattr(first, k), getattr(second, k)]) for k in ("exploration", "exploitation", "utility")))
+        scores = Scores.concatenate([first, second])
         value = np.where(far_enough(candidates, visited), self._value(scores), -np.inf)
         best = int(np.argmax(value))
         if not np.isfinite(value[best]):
@@ -225,10 +227,19 @@ class ReplayPlanner(Planner):
         return cls(cfg, rng, views)
 
 
-# The planners that choose views, by name (the one list; sweeps build their variants on it, experiments.py),
-# and the replay planner, which follows a recorded mission's views (the paper's cross-validation).
-PLANNERS = {"stair": UtilityPlanner, "exploration": UtilityPlanner, "fixed": FixedPatternPlanner,
-            "max_distance": MaxViewDistancePlanner, "uniform": UniformPlanner, "ste": STEPlanner}
+# The semantic-uncertainty weight lambda of stair_semantic. Measured on lite STAIR missions of scenes 1 and 3
+# (steps 2-4, 100 spread candidates, label noise none and high): across the candidates U_sem spreads 0.37-1.0
+# times as much as U_er (standard deviations 39-151 against 47-211), so lambda = epsilon gives the semantic
+# term about the exploration term's say in the choice, not more.
+SEMANTIC_WEIGHT = PlanConfig.epsilon
+# Beyond the paper: STAIR's planner with another utility, by name (UtilityOptions beside epsilon).
+UTILITY_VARIANTS = {"stair_soft": {"soft_mask": True}, "stair_semantic": {"semantic_weight": SEMANTIC_WEIGHT}}
+# The paper's planners that choose views, by name (sweeps build their variants on them, experiments.py),
+# the planners beyond the paper, and the replay planner, which follows a recorded mission's views (the
+# paper's cross-validation).
+PAPER_PLANNERS = {"stair": UtilityPlanner, "exploration": UtilityPlanner, "fixed": FixedPatternPlanner,
+                  "max_distance": MaxViewDistancePlanner, "uniform": UniformPlanner, "ste": STEPlanner}
+PLANNERS = {**PAPER_PLANNERS, **dict.fromkeys(UTILITY_VARIANTS, UtilityPlanner)}
 REPLAY = "replay"
 
 
@@ -247,7 +258,8 @@ def make_planner(name: str, preset: Preset, seed: int, replay: str | Path | None
     own seeded random generator; ``replay``: the metrics.json whose views the ``replay`` planner follows."""
     cls, cfg, rng = planner_class(name, replay), preset.plan, np.random.default_rng(seed)
     if cls is UtilityPlanner:
-        return UtilityPlanner(cfg, rng, exploration_only=name == "exploration")
+        options = UtilityOptions(epsilon=cfg.epsilon, **UTILITY_VARIANTS.get(name, {}))
+        return UtilityPlanner(cfg, rng, options, exploration_only=name == "exploration", name=name)
     if cls is FixedPatternPlanner:
         return FixedPatternPlanner(cfg, rng, preset.budget)
     if cls is STEPlanner:

@@ -7,6 +7,12 @@ Introduced in notebook 04. For a view's rays with samples x_i:
   U_et(v)  = sum_rays H_ray * [argmax S(r) in targets]             (Eqs. 13-14, exploitation; Eq. 14 is the mask)
   U(v)     = U_et(v) + epsilon * U_er(v)                           (Eq. 15)
 
+Beyond the paper (notebook 07), for labels that can be wrong, two options read the same render:
+  p_T(r)    = sum_{c in targets} S_c(r)                            (the rendered probability of a target)
+  soft mask:  U_et(v) = sum_rays H_ray * p_T(r)                    (instead of the argmax test of Eq. 14)
+  H_sem(r)  = -sum_c S_c(r) ln S_c(r)                              (entropy of the rendered class distribution)
+  U_sem(v)  = sum_rays H_sem(r);  U(v) = U_et + epsilon U_er + lambda U_sem
+
 Candidate views are rendered from a ``FieldSnapshot``: the field's occupancy, point entropy and
 class probabilities evaluated once per planning step on a lattice, then read by nearest-vertex
 lookup along every candidate ray, instead of running the MLPs at every sample (notebook 04
@@ -41,15 +47,21 @@ class UtilityOptions:
     ``saturating_rays``: per-ray uncertainty 1 - exp(-H_ray) (bits) instead of H_ray.
     ``delete_background``: samples whose class argmax is background count as empty.
     ``mask_dilation``: grow the target mask by this many pixels (the reference uses 2 at 400 px).
+    ``soft_mask``: weigh each ray by its rendered target probability p_T instead of the argmax test.
+    ``semantic_weight``: lambda, the weight of the semantic-uncertainty term U_sem (0: the paper's utility).
     """
 
     epsilon: float = PlanConfig.epsilon
     saturating_rays: bool = False
     delete_background: bool = False
     mask_dilation: int = 0
+    soft_mask: bool = False
+    semantic_weight: float = 0.0
 
     def __post_init__(self):
         check_epsilon(self.epsilon)
+        if not np.isfinite(self.semantic_weight) or self.semantic_weight < 0:
+            raise ValueError(f"semantic_weight must be a finite number >= 0, got {self.semantic_weight!r}")
         if self.mask_dilation < 0:
             raise ValueError(f"mask_dilation must be >= 0 pixels, got {self.mask_dilation!r}")
 
@@ -100,7 +112,8 @@ def render_uncertainty(
     near: float = 0.2,
     delete_background: bool = False,
 ) -> dict[str, torch.Tensor]:
-    """Render, for each pose, per-ray entropy H_ray (V, H, W) and class probabilities S (V, H, W, P).
+    """Render, for each pose, per-ray entropy H_ray (V, H, W), class probabilities S (V, H, W, P) and the
+    entropy of S, H_sem (V, H, W).
 
     ``source`` is a FieldSnapshot (fast) or a SemanticField (exact: the field runs at every sample).
     """
@@ -124,7 +137,18 @@ def render_uncertainty(
     sem = torch.bmm(weights[:, None, :], probs).squeeze(1)  # sum_i w_i s_i, one small product per ray
     sem[:, BACKGROUND] += 1.0 - weights.sum(dim=1)
     v, h, w = len(poses), intrinsics.height, intrinsics.width
-    return {"h_ray": h_ray.view(v, h, w), "sem": sem.view(v, h, w, NUM_CLASSES)}
+    return {"h_ray": h_ray.view(v, h, w), "sem": sem.view(v, h, w, NUM_CLASSES), "h_sem": class_entropy(sem).view(v, h, w)}
+
+
+def class_entropy(sem: torch.Tensor) -> torch.Tensor:
+    """H_sem: the entropy [nats] of each class distribution along the last axis (0 ln 0 = 0)."""
+    p = sem.clamp(0.0, 1.0)
+    return -torch.special.xlogy(p, p).sum(dim=-1)
+
+
+def target_probability(sem: torch.Tensor, targets: tuple[int, ...]) -> torch.Tensor:
+    """p_T(r): the rendered probability that each ray shows a target class (..., H, W)."""
+    return sem[..., list(targets)].sum(dim=-1)
 
 
 def target_mask(sem: torch.Tensor, targets: tuple[int, ...], dilation: int = 0) -> torch.Tensor:
@@ -136,36 +160,55 @@ def target_mask(sem: torch.Tensor, targets: tuple[int, ...], dilation: int = 0) 
     return mask
 
 
+def soft_target_mask(sem: torch.Tensor, targets: tuple[int, ...], dilation: int = 0) -> torch.Tensor:
+    """The soft mask: p_T(r) per ray (V, H, W), optionally dilated (the largest p_T within ``dilation`` pixels)."""
+    p = target_probability(sem, targets)
+    if dilation > 0:
+        p = F.max_pool2d(p[:, None], 2 * dilation + 1, stride=1, padding=dilation)[:, 0]
+    return p
+
+
 @dataclass
 class Scores:
-    """Per-view scores (arrays of length V): exploration U_er, exploitation U_et and utility U."""
+    """Per-view scores (arrays of length V): exploration U_er, exploitation U_et, semantic uncertainty U_sem
+    and utility U."""
 
     exploration: np.ndarray
     exploitation: np.ndarray
     utility: np.ndarray
+    semantic: np.ndarray
+
+    @classmethod
+    def concatenate(cls, parts: list["Scores"]) -> "Scores":
+        return cls(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("exploration", "exploitation", "utility", "semantic")))
 
     def columns(self, i: int) -> dict[str, float]:
         """The scores of candidate ``i``, named as a mission record's columns."""
         return {"utility": float(self.utility[i]), "exploitation": float(self.exploitation[i]),
-                "exploration": float(self.exploration[i])}
+                "exploration": float(self.exploration[i]), "semantic_uncertainty": float(self.semantic[i])}
 
 
 def score_views(
     source, views: np.ndarray, targets: tuple[int, ...], intrinsics: Intrinsics, n_samples: int,
     options: UtilityOptions = UtilityOptions(), chunk_samples: int = 2**21,
 ) -> Scores:
-    """Eqs. 12-15 for every view (elevation, azimuth) of ``views``, rendered in chunks of whole views of
-    about ``chunk_samples`` samples (the memory of one chunk; the scores do not depend on it)."""
+    """Eqs. 12-15 for every view (elevation, azimuth) of ``views`` (and U_sem), rendered in chunks of whole views
+    of about ``chunk_samples`` samples (the memory of one chunk; the scores do not depend on it)."""
     chunk_views = max(1, chunk_samples // (intrinsics.width * intrinsics.height * n_samples))
-    u_er, u_et = [], []
+    u_er, u_et, u_sem = [], [], []
     for start in range(0, len(views), chunk_views):
         poses = [view_to_pose(el, az) for el, az in views[start : start + chunk_views]]
         out = render_uncertainty(source, intrinsics, poses, n_samples, delete_background=options.delete_background)
         h = out["h_ray"]
         if options.saturating_rays:
             h = 1.0 - torch.exp(-h / np.log(2.0))
-        mask = target_mask(out["sem"], targets, options.mask_dilation)
+        if options.soft_mask:
+            mask = soft_target_mask(out["sem"], targets, options.mask_dilation)
+        else:
+            mask = target_mask(out["sem"], targets, options.mask_dilation)
         u_er.append(h.sum(dim=(1, 2)).cpu().numpy())
         u_et.append((h * mask).sum(dim=(1, 2)).cpu().numpy())
-    u_er, u_et = np.concatenate(u_er), np.concatenate(u_et)
-    return Scores(exploration=u_er, exploitation=u_et, utility=u_et + options.epsilon * u_er)
+        u_sem.append(out["h_sem"].sum(dim=(1, 2)).cpu().numpy())
+    u_er, u_et, u_sem = np.concatenate(u_er), np.concatenate(u_et), np.concatenate(u_sem)
+    return Scores(exploration=u_er, exploitation=u_et, semantic=u_sem,
+                  utility=u_et + options.epsilon * u_er + options.semantic_weight * u_sem)

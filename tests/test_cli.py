@@ -65,3 +65,17 @@ def test_an_output_folder_under_a_file_is_named(tmp_path, capsys, argv):
     assert main(argv + ["--out", str(tmp_path / "file" / "out")]) == 2
     err = capsys.readouterr().err
     assert f"{tmp_path / 'file' / 'out'}" in err and "Not a directory" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("command", ["run", "sweep", "fit"])
+def test_label_noise_is_an_option_of_run_sweep_and_fit(capsys, command):
+    with pytest.raises(SystemExit):  # argparse names the value and the choices
+        main([command, "--label-noise", "loud"])
+    assert "--label-noise: invalid choice: 'loud' (choose from 'none', 'low', 'medium', 'high')" in capsys.readouterr().err
+
+
+def test_a_noisy_mission_from_the_command_line_says_so_and_stores_its_level(tmp_path, capsys):
+    assert main(["run", "--preset", "smoke", "--budget", "1", "--label-noise", "medium", "--quiet",
+                 "--out", str(tmp_path)]) == 0
+    assert "label noise medium" in capsys.readouterr().out
+    assert json.loads((tmp_path / "metrics.json").read_text())["config"]["label_noise"] == "medium"

@@ -64,10 +64,26 @@ def test_results_folder_of_another_configuration_is_refused(tmp_path):
     run_sweep(spec(variants=("uniform",)), tmp_path, progress=False)
     with pytest.raises(ValueError, match="another folder"):
         run_sweep(spec(variants=("uniform",), budget=3), tmp_path, progress=False)
+    with pytest.raises(ValueError, match="label noise 'none'; use another folder for .* label noise 'high'"):
+        run_sweep(spec(variants=("uniform",), label_noise="high"), tmp_path, progress=False)
+    sweep_file = tmp_path / "sweep.json"  # a folder written before noisy labels existed holds exact ones
+    stored = json.loads(sweep_file.read_text())
+    del stored["label_noise"]
+    sweep_file.write_text(json.dumps(stored))
+    run_sweep(spec(variants=("uniform",)), tmp_path, progress=False)
+    with pytest.raises(ValueError, match="label noise 'none'"):
+        run_sweep(spec(variants=("uniform",), label_noise="low"), tmp_path, progress=False)
+
+
+def test_a_noisy_sweep_runs_its_cells_with_the_noisy_segmenter(tmp_path):
+    run_sweep(spec(variants=("uniform",), seeds=(0,), label_noise="high"), tmp_path, progress=False)
+    cell = spec(variants=("uniform",), seeds=(0,)).cells()[0]
+    assert json.loads((cell.folder(tmp_path) / "metrics.json").read_text())["config"]["label_noise"] == "high"
 
 
 @pytest.mark.parametrize("kw,match", [({"scenes": ("scene9",)}, "unknown scenes"), ({"variants": ("greedy",)}, "unknown planner variant"),
-                                       ({"seeds": (-1,)}, "non-negative"), ({"variants": ("stair_epsx",)}, "unknown planner variant")])
+                                       ({"seeds": (-1,)}, "non-negative"), ({"variants": ("stair_epsx",)}, "unknown planner variant"),
+                                       ({"label_noise": "loud"}, "unknown label noise level 'loud'")])
 def test_bad_sweep_settings_are_named(kw, match):
     with pytest.raises(ValueError, match=match):
         spec(**kw)

@@ -100,7 +100,8 @@ def test_results_folder_is_protected(tmp_path):
 @pytest.mark.parametrize("kw,match", [
     ({"budget": 0}, "budget must be a whole number of measurements from 1 to 50"), ({"budget": 51}, "from 1 to 50, got 51"),
     ({"epsilon": -0.5}, "epsilon must be a finite number >= 0"), ({"epsilon": float("inf")}, "finite number >= 0, got inf"),
-    ({"planner": "random"}, "unknown planner"), ({"targets": ("boat",)}, "unknown class name")])
+    ({"planner": "random"}, "unknown planner"), ({"targets": ("boat",)}, "unknown class name"),
+    ({"label_noise": "loud"}, "unknown label noise level 'loud'")])
 def test_bad_mission_settings_are_named(kw, match):
     with pytest.raises(ValueError, match=match):
         Mission(MissionConfig(**kw), preset=TINY)
@@ -109,6 +110,38 @@ def test_bad_mission_settings_are_named(kw, match):
 def test_targets_must_be_in_the_scene():
     with pytest.raises(ValueError, match="do not occur in scene"):
         Mission(MissionConfig(scene="scene2", targets=("car",)), preset=TINY)
+
+
+def test_a_mission_with_noisy_labels_trains_on_them_resumes_exactly_and_is_scored_on_exact_ones(tmp_path):
+    full = Mission(MissionConfig(planner="stair", budget=3, label_noise="high"), out=tmp_path / "full", preset=TINY)
+    records = full.run()
+    exact_mission = Mission(MissionConfig(planner="stair", budget=3), out=tmp_path / "exact", preset=TINY)
+    exact = exact_mission.run()
+    assert strip_times(records) != strip_times(exact)  # the labels changed what was learnt
+    assert all(np.array_equal(a, b) for a, b in zip(full.evaluator.gt_images, exact_mission.evaluator.gt_images))
+    stored = json.loads((tmp_path / "full" / "metrics.json").read_text())
+    assert stored["config"]["label_noise"] == "high"
+    assert "label_noise" not in json.loads((tmp_path / "exact" / "metrics.json").read_text())["config"]  # as before
+
+    def stop_after_two(record):
+        if record["step"] == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        Mission(MissionConfig(planner="stair", budget=3, label_noise="high"), out=tmp_path / "cut", preset=TINY).run(
+            on_step=stop_after_two)
+    resumed = Mission(MissionConfig(planner="stair", budget=3, label_noise="high"), out=tmp_path / "cut", preset=TINY,
+                      resume=True).run()
+    assert strip_times(resumed) == strip_times(records)
+    with pytest.raises(ResultsFolderError, match="different mission"):
+        Mission(MissionConfig(planner="stair", budget=3, label_noise="low"), out=tmp_path / "cut", preset=TINY, resume=True)
+
+
+@pytest.mark.parametrize("planner", ["stair_soft", "stair_semantic"])
+def test_the_planners_beyond_the_paper_complete_a_noisy_mission(tmp_path, planner):
+    mission = Mission(MissionConfig(planner=planner, budget=2, label_noise="medium"), out=tmp_path, preset=TINY)
+    records = mission.run()
+    assert len(records) == 2 and records[1]["semantic_uncertainty"] >= 0
 
 
 @pytest.mark.parametrize("planner", ["exploration", "fixed", "max_distance", "uniform"])

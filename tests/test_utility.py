@@ -5,10 +5,11 @@ import torch
 import stair_lite  # noqa: F401
 from stair_lite.config import FieldConfig, PlanConfig, get_preset
 from stair_lite.field import SemanticField
-from stair_lite.geometry import Intrinsics, fibonacci_hemisphere, view_to_position
+from stair_lite.geometry import Intrinsics, fibonacci_hemisphere, view_to_pose, view_to_position
 from stair_lite.lattice import Lattice
 from stair_lite.planners import MIN_SEPARATION, make_planner, far_enough
-from stair_lite.utility import FieldSnapshot, UtilityOptions, point_entropy, render_uncertainty, score_views, target_mask
+from stair_lite.utility import (FieldSnapshot, UtilityOptions, class_entropy, point_entropy, render_uncertainty, score_views,
+                                target_mask, target_probability)
 
 
 def test_point_entropy_closed_form_and_limits():
@@ -178,3 +179,57 @@ def test_nearest_vertex_along_rays_is_the_nearest_vertex_of_each_sample():
     direct = lattice.nearest_index(origins[:, None, :] + t[..., None] * dirs[:, None, :])
     assert fused.shape == direct.shape == (500, 64)
     assert (fused == direct).float().mean() > 0.999
+
+
+class MixedSlabField(SlabField):
+    """A half-occupied slab with split labels: probability p of the target class 2 and 1 - p of its look-alike 4."""
+
+    def __init__(self, p, **kwargs):
+        super().__init__(0.5, cls=2, **kwargs)
+        self.p = p
+
+    def query(self, x):
+        out = super().query(x)
+        inside = out["sem"][:, 2] > 0
+        out["sem"][inside, 2], out["sem"][inside, 4] = self.p, 1.0 - self.p
+        return out
+
+
+def test_class_entropy_and_target_probability_in_closed_form():
+    sem = torch.tensor([[1 / 7] * 7, [1.0] + [0.0] * 6, [0.0, 0.0, 0.3, 0.0, 0.7, 0.0, 0.0]])
+    torch.testing.assert_close(class_entropy(sem), torch.tensor([np.log(7), 0.0, -(0.3 * np.log(0.3) + 0.7 * np.log(0.7))], dtype=torch.float32))
+    torch.testing.assert_close(target_probability(sem, (2, 4)), torch.tensor([2 / 7, 0.0, 1.0]))
+
+
+def test_the_soft_mask_weighs_each_ray_by_its_target_probability():
+    k, views, n = Intrinsics.from_fov(16, 16, 60), fibonacci_hemisphere(5), 128
+    for field in (SlabField(0.5, cls=2), MixedSlabField(0.4)):
+        soft = score_views(field, views, (2,), k, n, UtilityOptions(soft_mask=True))
+        out = render_uncertainty(field, k, [view_to_pose(*v) for v in views], n)
+        expected = (out["h_ray"] * target_probability(out["sem"], (2,))).sum(dim=(1, 2)).numpy()
+        np.testing.assert_allclose(soft.exploitation, expected, rtol=1e-5)
+        assert np.all(soft.exploitation > 0) and np.all(soft.exploitation <= soft.exploration + 1e-4)
+    # 40 % target, 60 % sofa on every ray: the argmax test never says target, the soft mask counts 40 %
+    assert np.all(score_views(MixedSlabField(0.4), views, (2,), k, n, UtilityOptions()).exploitation == 0)
+
+
+def test_the_semantic_term_adds_lambda_times_the_summed_class_entropy():
+    k, views, n = Intrinsics.from_fov(16, 16, 60), fibonacci_hemisphere(5), 128
+    paper = score_views(MixedSlabField(0.5), views, (2,), k, n, UtilityOptions())
+    semantic = score_views(MixedSlabField(0.5), views, (2,), k, n, UtilityOptions(semantic_weight=0.3))
+    out = render_uncertainty(MixedSlabField(0.5), k, [view_to_pose(*v) for v in views], n)
+    np.testing.assert_allclose(semantic.semantic, class_entropy(out["sem"]).sum(dim=(1, 2)).numpy(), rtol=1e-5)
+    np.testing.assert_allclose(semantic.utility, paper.utility + 0.3 * semantic.semantic, rtol=1e-5)
+    assert np.all(semantic.semantic > 0)  # rays through the split slab: up to ln 2 each
+    certain = score_views(SlabField(1.0, cls=2), views, (2,), k, n, UtilityOptions(semantic_weight=0.3))
+    assert np.abs(certain.semantic).max() < 1e-3  # opaque, one-hot labels: nothing to learn about classes
+    with pytest.raises(ValueError, match="semantic_weight must be a finite number >= 0, got -1"):
+        UtilityOptions(semantic_weight=-1)
+
+
+def test_the_planner_variants_beyond_the_paper_carry_their_options():
+    preset = get_preset("smoke")
+    assert make_planner("stair_soft", preset, seed=0).options.soft_mask
+    assert make_planner("stair_semantic", preset, seed=0).options.semantic_weight > 0
+    paper = make_planner("stair", preset, seed=0).options
+    assert not paper.soft_mask and paper.semantic_weight == 0

@@ -261,6 +261,13 @@ def _cmd_claims(args):
     return 0
 
 
+def _cmd_label_noise_claims(args):
+    from .noise_study import markdown_report, study_rows
+
+    print(markdown_report(study_rows(Path(args.results), log=_warn)))
+    return 0
+
+
 def _cmd_headroom(args):
     import matplotlib
 
@@ -370,6 +377,9 @@ def main(argv=None):
     p.add_argument("--results", default="data/results/comparison_lite")
     p.add_argument("--ablation", default=None, help="an epsilon-ablation sweep folder (claim iii)")
     p.set_defaults(func=_cmd_claims)
+    p = sub.add_parser("label-noise-claims", help="does semantic uncertainty help under label noise? (Markdown)")
+    p.add_argument("--results", default="data/results", help="the folder of label_noise_<level>_lite and comparison_lite")
+    p.set_defaults(func=_cmd_label_noise_claims)
     args = parser.parse_args(argv)
     try:
         return args.func(args) or 0

@@ -158,7 +158,7 @@ def plot_sweep_curves(rows, metric: str = "psnr", variants=None, axes=None, ylab
         ax.set_xlabel("measurements")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel(ylabel or metric)
-    axes[-1].legend(fontsize=7, loc="lower right")
+    next((ax for ax in axes[::-1] if ax.lines), axes[-1]).legend(fontsize=7, loc="lower right")
     return axes
 
 

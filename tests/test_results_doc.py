@@ -14,3 +14,13 @@ def test_results_md_quotes_the_computed_verdicts():
     computed = markdown_report(collect(RESULTS_DIR / "comparison_lite"),
                                collect(RESULTS_DIR / "ablation_hidden_chair_lite")).rstrip("\n")
     assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite claims ...` between its markers"
+
+
+def test_results_md_quotes_the_label_noise_verdicts():
+    from stair_lite.noise_study import markdown_report as noise_report, study_rows
+
+    begin, end = "<!-- label noise: generated", "<!-- label noise: end -->"
+    text = RESULTS_MD.read_text()
+    quoted = text[text.index(begin):text.index(end)].split("\n", 1)[1].rstrip("\n")
+    computed = noise_report(study_rows(RESULTS_DIR, log=lambda message: None)).rstrip("\n")
+    assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite label-noise-claims`"

@@ -1,0 +1,37 @@
+"""The label-noise study's verdicts: pairs by (scene, seed), the exact level's missions borrowed from the comparison."""
+import numpy as np
+import pytest
+
+from stair_lite.noise_study import LEVELS, markdown_report, pooled, study_rows
+
+
+def rows_of(variant, scene, seeds, f1, psnr=20.0):
+    return [{"scene": scene, "variant": variant, "seed": s, "step": step, "f1": f1 + 0.01 * s, "psnr": psnr + s}
+            for s in seeds for step in (1, 2)]
+
+
+def test_pooled_pairs_each_scene_and_seed_that_both_variants_ran():
+    rows = (rows_of("stair", "scene1", [0, 1, 2], 0.5) + rows_of("stair_semantic", "scene1", [0, 1], 0.6)
+            + rows_of("stair", "scene2", [0, 1], 0.3) + rows_of("stair_semantic", "scene2", [1], 0.2))
+    c = pooled(rows, "f1", "stair_semantic", "stair")
+    assert len(c.claimed_scores) == 3  # scene1 seeds 0 and 1, scene2 seed 1
+    np.testing.assert_allclose(c.differences, [0.1, 0.1, -0.1])
+    assert pooled(rows, "f1", "stair_soft", "stair") is None
+
+
+def test_a_consistent_gain_is_called_helps_and_missing_pairs_are_said():
+    rows = rows_of("stair", "scene1", range(6), 0.5) + [
+        {**r, "variant": "stair_semantic", "f1": r["f1"] + 0.05 + 0.001 * r["seed"]} for r in rows_of("stair", "scene1", range(6), 0.5)]
+    report = markdown_report({"none": rows, "low": [], "high": rows_of("stair", "scene1", [0], 0.4)})
+    assert "stair_semantic on f1: **helps**" in report and "stair_semantic on psnr: **no significant difference**" in report
+    assert report.count("No pair of a utility variant and STAIR has finished yet.") == 2
+
+
+def test_study_rows_take_the_exact_levels_paper_variants_from_the_comparison(tmp_path):
+    by_level = study_rows(tmp_path / "nothing", log=lambda m: None)
+    assert set(by_level) == set(LEVELS) and not any(by_level.values())
+    from stair_lite.experiments import RESULTS_DIR
+
+    stored = study_rows(RESULTS_DIR, log=lambda m: None)
+    variants = {r["variant"] for r in stored["none"]}
+    assert {"stair", "exploration", "max_distance"} <= variants and not variants & {"fixed", "ste", "uniform"}

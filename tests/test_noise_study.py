@@ -1,6 +1,5 @@
 """The label-noise study's verdicts: pairs by (scene, seed), the exact level's missions borrowed from the comparison."""
 import numpy as np
-import pytest
 
 from stair_lite.noise_study import LEVELS, markdown_report, pooled, study_rows
 

@@ -26,10 +26,12 @@ from .segmenter import LABEL_NOISE
 
 
 def _cmd_scenes(args):
-    from .scenes import list_scenes, load_scene_spec
+    from .scenes import build_scene, list_scenes, load_scene_spec
 
     for name in args.files or list_scenes():
         spec = load_scene_spec(name)
+        if args.files:
+            build_scene(spec)  # a file is described only if run accepts it: its objects fit the cube and do not overlap
         classes = sorted({CLASS_NAMES[o.cls] for o in spec.objects})
         print(f"{name:22s} targets: {', '.join(CLASS_NAMES[t] for t in spec.targets):16s} "
               f"{len(spec.objects)} objects ({', '.join(classes)})")
@@ -42,17 +44,17 @@ def _cmd_render(args):
     import matplotlib.pyplot as plt
     import numpy as np
 
+    from .mission import make_output_folder
     from .plotting import show_measurement
     from .scenes import load_scene
     from .simulator import Simulator
 
+    out = make_output_folder(args.out)
     sim = Simulator(load_scene(args.scene))
     views = [(np.pi / 2, 0.0), (0.6, 0.5), (0.25, 2.5)]
     fig, axes = plt.subplots(len(views), 3, figsize=(11, 3.6 * len(views)))
     for row, (el, az) in zip(axes, views):
         show_measurement(sim.render_view(el, az), f"el {np.degrees(el):.0f} az {np.degrees(az):.0f}", axes=row)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
     image = out / f"{Path(args.scene).stem}_views.png"  # a scene file's name, not its path: the image goes into --out
     fig.savefig(image, dpi=80)
@@ -68,10 +70,12 @@ def _cmd_fit(args):
     from .evaluation import Evaluator
     from .geometry import fibonacci_hemisphere, view_to_pose
     from .maps import ImplicitMap
+    from .mission import make_output_folder
     from .scenes import load_scene
     from .segmenter import NoisySegmenter
     from .simulator import Simulator
 
+    out = make_output_folder(args.out) if args.out else None  # before training: a bad folder costs nothing
     preset = get_preset(args.preset)
     segmenter = NoisySegmenter(args.label_noise, seed=args.seed)
     for name in ("iterations", "rays", "views"):
@@ -104,9 +108,7 @@ def _cmd_fit(args):
     print(f"target-only PSNR {result['psnr']:.2f} dB over {len(evaluator.poses)} test views | mesh precision "
           f"{result['precision']:.3f} completeness {result['completeness']:.3f} F1 {result['f1']:.3f} "
           f"(1 cm, {preset.eval.mesh_points} points) | training {t_train:.1f} s, evaluation {result['time_total_s']:.1f} s")
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
         if result["mesh"] is not None:
             result["mesh"].export(out / "target_mesh.ply")
             print(f"wrote {out / 'target_mesh.ply'}")
@@ -277,8 +279,10 @@ def _cmd_headroom(args):
     import numpy as np
 
     from .headroom import METRICS, UTILITIES, measure_headroom
+    from .mission import make_output_folder
     from .plotting import plot_headroom
 
+    make_output_folder(args.out)
     result = measure_headroom(args.scene, args.after, args.candidates, seed=args.seed, preset=args.preset,
                               log=lambda line: None if args.quiet else print(line, flush=True))
     command = (f"python -m stair_lite headroom --scene {args.scene} --after {args.after} --candidates {args.candidates} "

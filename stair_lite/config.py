@@ -13,12 +13,16 @@ from .lattice import CUBE_BOUND
 
 
 MAX_BUDGET = 50  # measurements: the 8.1 deg caps around 49 visited views cover at most half the hemisphere
+# The largest exploration weight: the utility is summed in float32, whose 24-bit mantissa resolves 6e-8 of a
+# value, and U_et <= U_er, so beyond about 1e7 the exploitation term no longer changes any choice (the planner is
+# Exploration's), and near 3.4e38 epsilon U_er overflows to inf.
+MAX_EPSILON = 1e6
 
 
 def check_epsilon(epsilon: float) -> None:
-    """The exploration weight of Eq. 15 is a finite, non-negative number."""
-    if isinstance(epsilon, bool) or not (isinstance(epsilon, numbers.Real) and 0 <= epsilon < float("inf")):
-        raise ValueError(f"epsilon must be a finite number >= 0, got {epsilon!r}")
+    """The exploration weight of Eq. 15 is a number from 0 to ``MAX_EPSILON``."""
+    if isinstance(epsilon, bool) or not (isinstance(epsilon, numbers.Real) and 0 <= epsilon <= MAX_EPSILON):
+        raise ValueError(f"epsilon must be a number from 0 to {MAX_EPSILON:g}, got {epsilon!r}")
 
 
 def check_budget(budget: int) -> None:

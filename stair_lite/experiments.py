@@ -23,12 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import get_preset
+from .config import check_epsilon, get_preset
 from .maps import EXPLICIT, IMPLICIT
 from .mission import (METRICS_FILE, SCORE_COLUMNS, FolderInUseError, Mission, MissionConfig, ResultsFolderError,
-                      write_json_atomically)
+                      make_output_folder, write_json_atomically)
 from .planners import PAPER_PLANNERS, PLANNERS, REPLAY
-from .scenes import list_scenes, scene_file_hash, scene_key
+from .scenes import list_scenes, scene_content_hash, scene_key
 from .segmenter import EXACT, label_noise
 
 PAPER_SCENES = ("scene1", "scene2", "scene3", "scene4")
@@ -89,8 +89,12 @@ def variant(name: str) -> Variant:
         try:
             epsilon = epsilon_of(name)
         except ValueError:
-            epsilon = -1.0
-        if epsilon >= 0:
+            epsilon = None  # not a number: an unknown variant
+        if epsilon is not None:
+            try:
+                check_epsilon(epsilon)
+            except ValueError as err:
+                raise ValueError(f"planner variant {name!r}: {err}") from None
             return Variant(name, "stair", epsilon=epsilon)
     raise ValueError(f"unknown planner variant {name!r}; choose from {', '.join(VARIANTS)} or {EPSILON_PREFIX}<value>")
 
@@ -202,11 +206,11 @@ def source_hash() -> str:
 def check_sweep_folder(root: Path, spec: SweepSpec, log=print) -> None:
     """Refuse a folder written by a sweep with another preset or budget (results must not mix); warn
     when the package's code has changed since the folder's first cells were run."""
-    root.mkdir(parents=True, exist_ok=True)
+    make_output_folder(root)
     path = root / SWEEP_FILE
     mine = {"preset": spec.preset, "budget": spec.budget, "preset_values": asdict(get_preset(spec.preset)),
             "label_noise": spec.label_noise}
-    files = {scene_key(s): scene_file_hash(s) for s in spec.scenes if scene_file_hash(s) is not None}
+    files = {scene_key(s): scene_content_hash(s) for s in spec.scenes}  # shipped scenes too: a file may share a name
     if path.exists():
         try:
             stored = {"label_noise": EXACT, **json.loads(path.read_text())}  # folders from before noisy labels: exact
@@ -219,15 +223,16 @@ def check_sweep_folder(root: Path, spec: SweepSpec, log=print) -> None:
                              f"for preset {spec.preset!r}, budget {spec.budget}, label noise {spec.label_noise!r}")
         changed = sorted(k for k in files if k in stored_files and stored_files[k] != files[k])
         if changed:
-            raise ValueError(f"the scene files of {changed} have changed since {root} was started; restore them or use "
-                             "another folder")
+            details = ", ".join(f"{k}: {stored_files[k]} there, {files[k]} now" for k in changed)
+            raise ValueError(f"{root} holds results of other scenes named {changed} (scene content {details}): a scene "
+                             "file was edited, or shares its name with another scene; restore it or use another folder")
         if stored.get("source_hash") != source_hash():
             log(f"warning: {root} was started with stair_lite sources {stored.get('source_hash')}, these are "
                 f"{source_hash()}: finished cells are kept; delete them to recompute with this code")
         if set(files) - set(stored_files):
             write_json_atomically(path, {**stored, "scene_files": {**stored_files, **files}})
     else:
-        write_json_atomically(path, {**mine, "source_hash": source_hash(), **({"scene_files": files} if files else {})})
+        write_json_atomically(path, {**mine, "source_hash": source_hash(), "scene_files": files})
 
 
 def replay_source(cell: Cell) -> Cell | None:

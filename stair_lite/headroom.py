@@ -23,7 +23,7 @@ from scipy import stats
 from .claims import LOWER_IS_BETTER
 from .geometry import Intrinsics, fibonacci_hemisphere, view_to_pose
 from .maps import ImplicitMap
-from .mission import Mission, MissionConfig
+from .mission import Mission, MissionConfig, make_output_folder
 from .planners import far_enough, make_planner, mean_squared_distance
 from .utility import FieldSnapshot, UtilityOptions, score_views
 
@@ -55,8 +55,7 @@ class Headroom:
 
     def save(self, folder: str | Path, command: str = "") -> Path:
         """``<scene>_after<K>.csv`` (the rows) and ``.json`` (everything else) in ``folder``; returns the stem."""
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
+        folder = make_output_folder(folder)
         stem = folder / f"{self.scene}_after{self.after}"
         with stem.with_suffix(".csv").open("w", newline="") as f:
             writer = csv.DictWriter(f, fieldnames=list(self.rows[0]))

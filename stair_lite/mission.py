@@ -78,6 +78,22 @@ class MissionConfig:
         return preset.with_budget(self.budget).with_epsilon(self.epsilon)
 
 
+def make_output_folder(folder: str | Path) -> Path:
+    """Create a folder for results (and its parents), or refuse in one line that names the problem: a file where
+    a folder belongs, or a folder that cannot be written. Commands call it before they compute anything."""
+    folder = Path(folder)
+    blocking = next((p for p in (folder, *folder.parents) if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise OSError(f"cannot write results into {folder}: {blocking} is a file, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise OSError(f"cannot create the folder {folder}: {err.strerror or err}") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OSError(f"cannot write into the folder {folder}: it is read-only")
+    return folder
+
+
 def write_json_atomically(path: Path, data) -> None:
     """Write JSON to a temporary file, then rename it over ``path``: readers never see a partial file. A score
     that is not a finite number (the PSNR of a perfect image) is written as null: NaN is not JSON."""
@@ -98,6 +114,17 @@ def _finite_or_null(value):
     if isinstance(value, (list, tuple)):
         return [_finite_or_null(v) for v in value]
     return value
+
+
+def _differences(stored, mine, where: str = "") -> list[str]:
+    """Where two mission headers differ, as "field: stored there X, now Y" (a config without ``label_noise`` was
+    written before noisy labels existed, or by an exact mission: its level is none)."""
+    if isinstance(stored, dict) and isinstance(mine, dict):
+        if where == "config":
+            stored, mine = {"label_noise": EXACT, **stored}, {"label_noise": EXACT, **mine}
+        return [line for key in sorted(set(stored) | set(mine), key=str)
+                for line in _differences(stored.get(key), mine.get(key), f"{where}.{key}" if where else key)]
+    return [] if stored == mine else [f"{where}: {stored!r} there, {mine!r} now"]
 
 
 def _steps_and_views(records: list[dict]) -> list[tuple]:
@@ -163,9 +190,7 @@ class Mission:
         second unfinished Mission of this one, is refused instead of racing this one's files."""
         if self.out is None:
             return
-        if self.out.exists() and not self.out.is_dir():
-            raise ResultsFolderError(f"the output folder {self.out} is a file")
-        self.out.mkdir(parents=True, exist_ok=True)
+        make_output_folder(self.out)
         handle = open(self.out / LOCK_FILE, "a+")
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -205,10 +230,11 @@ class Mission:
             if resume:  # a mission may be resumed with a larger budget
                 mine["config"]["budget"] = stored.get("config", {}).get("budget")
                 mine["preset"]["budget"] = stored.get("preset", {}).get("budget")
-            if {k: stored.get(k) for k in ("config", "preset")} != {k: mine[k] for k in ("config", "preset")}:
-                raise ResultsFolderError(
-                    f"{self.out} holds results of a different mission ({stored.get('config')}); "
-                    "choose another folder or pass --overwrite")
+            differences = _differences({k: stored.get(k) for k in ("config", "preset")}, {k: mine[k] for k in ("config", "preset")})
+            if differences:
+                shown = "; ".join(differences[:4]) + (f"; and {len(differences) - 4} more" if len(differences) > 4 else "")
+                raise ResultsFolderError(f"{self.out} holds results of a different mission ({shown}); choose another "
+                                         "folder or pass --overwrite")
             if stored.get("scene_file_sha256") != mine["scene_file_sha256"]:
                 raise ResultsFolderError(
                     f"the scene file {self.config.scene} has changed since {self.out} was started (content "

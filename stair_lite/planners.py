@@ -214,14 +214,21 @@ class ReplayPlanner(Planner):
     def from_file(cls, cfg: PlanConfig, rng: np.random.Generator, path: str | Path, budget: int) -> "ReplayPlanner":
         """Follow the views of a mission's ``metrics.json``; it must hold at least ``budget`` of them."""
         try:
-            views = np.array([r["view_rad"] for r in json.loads(Path(path).read_text())["steps"]], dtype=float)
+            raw = [r["view_rad"] for r in json.loads(Path(path).read_text())["steps"]]
         except FileNotFoundError:
             raise FileNotFoundError(f"replay file not found: {path}") from None
         except (ValueError, UnicodeDecodeError, KeyError, TypeError, IndexError) as err:
             raise ValueError(f"{path} is not a mission's metrics.json (no list of steps with views): "
                              f"{type(err).__name__}: {err}") from None
-        if views.ndim != 2 or views.shape[1:] != (2,) or not np.all(np.isfinite(views)):
-            raise ValueError(f"{path} is not a mission's metrics.json: its views are not (elevation, azimuth) pairs")
+        for step, view in enumerate(raw, start=1):
+            if not (isinstance(view, list) and len(view) == 2 and all(
+                    isinstance(a, (int, float)) and not isinstance(a, bool) and np.isfinite(a) for a in view)):
+                raise ValueError(f"{path} is not a mission's metrics.json: the view of step {step}, {view!r}, is not "
+                                 "an (elevation, azimuth) pair of numbers")
+            if not -1e-9 <= view[0] <= np.pi / 2 + 1e-9:  # as view_to_pose accepts
+                raise ValueError(f"{path}: the view of step {step} has elevation {view[0]!r} rad, off the hemisphere "
+                                 "[0, pi/2]")
+        views = np.array(raw, dtype=float).reshape(-1, 2)
         if len(views) < budget:
             raise ValueError(f"{path} holds {len(views)} views, fewer than the budget {budget}")
         return cls(cfg, rng, views)

@@ -356,8 +356,8 @@ def list_scenes() -> list[str]:
     return sorted(p.stem for p in SCENE_DIR.glob("*.json"))
 
 
-def load_scene_spec(name_or_path: str | Path) -> SceneSpec:
-    """Read a scene spec by shipped name ("scene1") or by path to a JSON file."""
+def scene_path(name_or_path: str | Path) -> Path:
+    """The JSON file of a scene: a shipped scene's ("scene1") in data/scenes, or the given path."""
     path = Path(name_or_path)
     if path.suffix != ".json":
         path = SCENE_DIR / f"{name_or_path}.json"
@@ -365,6 +365,12 @@ def load_scene_spec(name_or_path: str | Path) -> SceneSpec:
             raise ValueError(f"unknown scene {str(name_or_path)!r}; shipped scenes: {', '.join(list_scenes())}")
     if not path.exists():
         raise FileNotFoundError(f"scene file not found: {path}")
+    return path
+
+
+def load_scene_spec(name_or_path: str | Path) -> SceneSpec:
+    """Read a scene spec by shipped name ("scene1") or by path to a JSON file."""
+    path = scene_path(name_or_path)
     try:
         data = json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
@@ -378,11 +384,16 @@ def scene_key(name_or_path: str | Path) -> str:
     return path.stem if path.suffix == ".json" else str(name_or_path)
 
 
+def scene_content_hash(name_or_path: str | Path) -> str:
+    """sha256 of a scene's JSON file, shipped or not: a sweep records it per results folder name, so that a
+    scene file named like a shipped scene (or edited since) is never mixed with the results of another scene."""
+    return hashlib.sha256(scene_path(name_or_path).read_bytes()).hexdigest()[:16]
+
+
 def scene_file_hash(name_or_path: str | Path) -> str | None:
-    """sha256 of a scene file's content (None for a shipped scene, which the sources' hash covers): a mission or
-    sweep records it, so that one resumed after the file was edited is refused."""
-    path = Path(name_or_path)
-    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] if path.suffix == ".json" else None
+    """``scene_content_hash`` of a scene file, None for a shipped scene: a mission records it, so that one resumed
+    after the file was edited is refused (a mission of a shipped scene records its name)."""
+    return scene_content_hash(name_or_path) if Path(name_or_path).suffix == ".json" else None
 
 
 def load_scene(name_or_path: str | Path) -> Scene:

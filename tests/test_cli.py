@@ -16,7 +16,10 @@ def test_render_of_a_scene_file_writes_into_the_output_folder(tmp_path, capsys):
 
 @pytest.mark.parametrize("argv, message", [
     (["run", "--budget", "60"], "budget must be a whole number of measurements from 1 to 50, got 60"),
-    (["run", "--epsilon", "inf"], "epsilon must be a finite number >= 0, got inf"),
+    (["run", "--epsilon", "inf"], "epsilon must be a number from 0 to 1e+06, got inf"),
+    (["run", "--epsilon", "1e39"], "epsilon must be a number from 0 to 1e+06, got 1e+39"),  # float32 overflow
+    (["sweep", "--planners", "stair_eps1e308"], "planner variant 'stair_eps1e308': epsilon must be a number from 0"),
+    (["sweep", "--planners", "stair_epsinf"], "planner variant 'stair_epsinf': epsilon must be a number from 0"),
     (["sweep", "--workers", "0"], "--workers must be at least 1, got 0"),
     (["sweep", "--workers", "-1"], "--workers must be at least 1, got -1"),
     (["run", "--seed", str(10**20)], f"seed must be a whole number from 0 to 2**32 - 1, got {10**20}"),
@@ -26,15 +29,31 @@ def test_bad_settings_are_refused_in_one_line(tmp_path, capsys, argv, message):
     assert main(argv + ["--out", str(tmp_path / "out"), "--preset", "smoke"]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()  # refused before anything is written
 
 
 def test_scenes_describes_a_scene_file(tmp_path, capsys):
     scene = tmp_path / "mine.json"
     scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.0, 0.0]},
-                                                                 {"class": "chair", "position": [0.5, 0.0]}]}))
+                                                                 {"class": "chair", "position": [0.9, 0.0]}]}))
     assert main(["scenes", str(scene)]) == 0
     out = capsys.readouterr().out
     assert "mine.json" in out and "targets: car" in out and "2 objects (car, chair)" in out
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"scale": -1}, "object 0 (car): scale must be positive, got -1"),
+    ({"position": [1e300, 0.0]}, "extends outside the scene cube"),
+    ({"mesh": "teapot"}, "mesh source 'teapot' is neither 'procedural'"),
+])
+def test_scenes_refuses_a_scene_file_that_run_refuses(tmp_path, capsys, change, message):
+    scene = tmp_path / "mine.json"
+    scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.0, 0.0], **change}]}))
+    assert main(["scenes", str(scene)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert main(["run", "--scene", str(scene), "--preset", "smoke", "--budget", "1", "--out", str(tmp_path / "o")]) == 2
+    assert message in capsys.readouterr().err  # the same refusal
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -58,13 +77,54 @@ def test_a_garbage_replay_file_is_named(tmp_path, capsys, content):
     assert code == 2 and "garbage.json is not a mission's metrics.json" in err and "Traceback" not in err
 
 
-@pytest.mark.parametrize("argv", [["run", "--preset", "smoke", "--budget", "1"], ["render"],
-                                  ["sweep", "--preset", "smoke", "--budget", "1", "--scenes", "scene1", "--planners", "uniform"]])
-def test_an_output_folder_under_a_file_is_named(tmp_path, capsys, argv):
-    (tmp_path / "file").write_text("")
-    assert main(argv + ["--out", str(tmp_path / "file" / "out")]) == 2
+@pytest.mark.parametrize("views, message", [
+    ([[1.5707963, 0.0], [True, False]], "the view of step 2, [True, False], is not an (elevation, azimuth) pair of numbers"),
+    ([[1.5707963, 0.0], [0.3]], "the view of step 2, [0.3], is not an (elevation, azimuth) pair"),
+    ([[1.5707963, 0.0], [-0.4, 1.0]], "the view of step 2 has elevation -0.4 rad, off the hemisphere [0, pi/2]"),
+    ([[1.5707963, 0.0], [2.0, 1.0]], "the view of step 2 has elevation 2.0 rad, off the hemisphere"),
+])
+def test_replayed_views_are_checked_before_the_mission_starts(tmp_path, capsys, views, message):
+    replay = tmp_path / "views.json"
+    replay.write_text(json.dumps({"steps": [{"view_rad": v} for v in views]}))
+    code = main(["run", "--planner", "replay", "--replay", str(replay), "--preset", "smoke", "--budget", "2",
+                 "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
-    assert f"{tmp_path / 'file' / 'out'}" in err and "Not a directory" in err and "Traceback" not in err
+    assert code == 2 and message in err and "Traceback" not in err
+    assert not (tmp_path / "out" / "metrics.json").exists()  # refused before step 1
+
+
+COMMANDS_THAT_WRITE = [["run", "--preset", "smoke", "--budget", "1"], ["render"],
+                       ["sweep", "--preset", "smoke", "--budget", "1", "--scenes", "scene1", "--planners", "uniform"],
+                       ["fit", "--views", "1"],
+                       ["headroom", "--preset", "smoke", "--after", "1", "--candidates", "2"]]
+
+
+@pytest.mark.parametrize("argv", COMMANDS_THAT_WRITE, ids=lambda argv: argv[0])
+@pytest.mark.parametrize("where", ["a file", "under a file"])
+def test_an_output_folder_that_is_a_file_is_refused_before_any_work(tmp_path, capsys, monkeypatch, argv, where):
+    import stair_lite.simulator
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the command started working before it checked its output folder")
+
+    monkeypatch.setattr(stair_lite.simulator.Simulator, "__init__", no_work)
+    (tmp_path / "file").write_text("")
+    out = tmp_path / "file" if where == "a file" else tmp_path / "file" / "out"
+    assert main(argv + ["--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot write results into {out}: {tmp_path / 'file'} is a file, not a folder" in err
+    assert "Traceback" not in err and "Errno" not in err
+
+
+@pytest.mark.parametrize("argv", COMMANDS_THAT_WRITE, ids=lambda argv: argv[0])
+def test_an_output_folder_that_cannot_be_written_is_refused(tmp_path, capsys, monkeypatch, argv):
+    import os
+
+    real_access = os.access
+    monkeypatch.setattr(os, "access", lambda path, mode: False if str(path).startswith(str(tmp_path)) else real_access(path, mode))
+    assert main(argv + ["--out", str(tmp_path / "out")]) == 2  # (the tests may run as root, whom chmod does not stop)
+    err = capsys.readouterr().err
+    assert f"cannot write into the folder {tmp_path / 'out'}: it is read-only" in err and "Traceback" not in err
 
 
 @pytest.mark.parametrize("command", ["run", "sweep", "fit"])

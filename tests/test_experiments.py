@@ -229,10 +229,28 @@ def test_a_sweep_runs_on_a_scene_file_and_refuses_it_once_edited(tmp_path):
     assert [r["scene"] for r in collect(tmp_path / "out")] == ["mine"]
     assert "mine" in json.loads((tmp_path / "out" / "sweep.json").read_text())["scene_files"]
     scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.3, 0.0]}]}))
-    with pytest.raises(ValueError, match=r"scene files of \['mine'\] have changed"):
+    with pytest.raises(ValueError, match=r"results of other scenes named \['mine'\] \(scene content mine: \w+ there, "
+                                         r"\w+ now\)"):
         run_sweep(spec, tmp_path / "out", progress=False)
     with pytest.raises(ValueError, match="neither shipped"):
         SweepSpec((str(tmp_path / "missing.json"),), ("uniform",), (0,), "smoke", 1)
+
+
+@pytest.mark.parametrize("file_first", [False, True])
+def test_a_scene_file_named_like_a_shipped_scene_never_shares_its_cells(tmp_path, file_first):
+    """A file scene1.json of other content than the shipped scene1 would be stored under the same folder name:
+    whichever comes second is refused, instead of reusing (or redoing) the other's cells."""
+    other = tmp_path / "mine" / "scene1.json"
+    other.parent.mkdir()
+    other.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.0, 0.0]}]}))
+    shipped, mine = (SweepSpec((name,), ("uniform",), (0,), "smoke", 1) for name in ("scene1", str(other)))
+    first, second = (mine, shipped) if file_first else (shipped, mine)
+    run_sweep(first, tmp_path / "out", progress=False)
+    stored = (Cell("scene1", "uniform", 0).folder(tmp_path / "out") / "metrics.json").read_text()
+    with pytest.raises(ValueError, match=r"results of other scenes named \['scene1'\]"):
+        run_sweep(second, tmp_path / "out", progress=False)
+    assert (Cell("scene1", "uniform", 0).folder(tmp_path / "out") / "metrics.json").read_text() == stored
+    run_sweep(first, tmp_path / "out", progress=False)  # the same scene again is welcome
 
 
 @pytest.mark.parametrize("stop", ["ctrl-c twice", "SIGTERM", "SIGKILL"])

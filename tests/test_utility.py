@@ -63,7 +63,7 @@ def test_exploitation_counts_only_target_rays():
 
 
 def test_negative_epsilon_is_rejected():
-    with pytest.raises(ValueError, match="epsilon must be a finite number >= 0"):
+    with pytest.raises(ValueError, match="epsilon must be a number from 0 to"):
         UtilityOptions(epsilon=-0.1)
 
 

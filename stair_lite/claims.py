@@ -210,12 +210,17 @@ def first_sight(rows, min_pixels: int = MIN_PIXELS) -> dict[tuple[str, int], int
     (scene,) = scenes_of(rows)
     if scene not in HIDDEN_CHAIR:
         raise ValueError(f"{scene!r} is not an ablation scene; known: {', '.join(HIDDEN_CHAIR)}")
-    out = {}
-    for variant, seed in sorted({(r["variant"], int(r["seed"])) for r in rows}):
-        mine = sorted((r for r in rows if (r["variant"], r["seed"]) == (variant, seed)), key=lambda r: r["step"])
-        views = np.radians([[r["elevation_deg"], r["azimuth_deg"]] for r in mine])
-        seen = np.flatnonzero(object_pixels(scene, HIDDEN_CHAIR[scene], views) >= min_pixels)
-        out[(variant, seed)] = int(mine[seen[0]]["step"]) if len(seen) else None
+    missions = {key: sorted((r for r in rows if (r["variant"], int(r["seed"])) == key), key=lambda r: r["step"])
+                for key in sorted({(r["variant"], int(r["seed"])) for r in rows})}
+    # every distinct view once (all missions share their top view), rendered by one pair of simulators
+    views, where = np.unique([[r["elevation_deg"], r["azimuth_deg"]] for mine in missions.values() for r in mine],
+                             axis=0, return_inverse=True)
+    seen_at = (object_pixels(scene, HIDDEN_CHAIR[scene], np.radians(views)) >= min_pixels)[where.reshape(-1)]
+    out, start = {}, 0
+    for key, mine in missions.items():
+        seen = np.flatnonzero(seen_at[start:start + len(mine)])
+        out[key] = int(mine[seen[0]]["step"]) if len(seen) else None
+        start += len(mine)
     return out
 
 
@@ -234,8 +239,9 @@ def _count(comparisons: list[Comparison]) -> str:
     return f"holds in {t['holds']} of {len(comparisons)}, reversed in {t['reversed']}, not significant in {t['not significant']}"
 
 
-def markdown_report(rows, ablation_rows=None) -> str:
-    """The claim-by-claim verdict as Markdown, computed from a sweep's rows (and the ablation's)."""
+def markdown_report(rows, ablation_rows=None, sight: dict | None = None) -> str:
+    """The claim-by-claim verdict as Markdown, computed from a sweep's rows (and the ablation's); ``sight``: the
+    ablation's ``first_sight``, where it is already computed (it renders every view of every mission)."""
     out = ["Scores: each seed's mean over the 10 steps (the area under the curve over the steps); ± is the std over "
            "seeds; the paired difference is over the seeds both sides ran (same field initialisation and first view); "
            f"p from the paired t-test; a verdict needs p < {ALPHA}; lower chamfer is better.", "",
@@ -256,7 +262,7 @@ def markdown_report(rows, ablation_rows=None) -> str:
         final = claim_three(ablation_rows, step=last)
         out += [f"The same with each seed's value at the last step ({last}) instead of the mean over steps: "
                 + _count(final) + ".", "", *_table(final), ""]
-        sight = first_sight(ablation_rows)
+        sight = first_sight(ablation_rows) if sight is None else sight
         out += ["Missions that saw the occluded chair (at least "
                 f"{MIN_PIXELS} of 100 x 100 pixels in some view), and the first step they did:", ""]
         for variant in sorted({v for v, _ in sight}, key=epsilon_of):

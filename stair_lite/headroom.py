@@ -5,7 +5,7 @@ over the hemisphere (a Fibonacci set) are each added to a copy of the map, which
 (the same training state and random stream) and evaluated. A view's realised gain is a metric after it
 minus the metric before it (for the chamfer distance, before minus after: a gain is always an
 improvement). Every candidate is also scored by three planners' utilities: STAIR's U (Eq. 15),
-Exploration's U_er (Eq. 13) and Max View Distance's mean squared camera distance; the three planners' own
+Exploration's U_er (Eq. 12) and Max View Distance's mean squared camera distance; the three planners' own
 picks are realised the same way. The spread of the gains is the headroom a planner has; the rank
 correlation (Spearman) of a utility with the gains says whether the utility finds it.
 """

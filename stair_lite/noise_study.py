@@ -59,16 +59,23 @@ def per_scene(rows: list[dict], metric: str, claimed: str, other: str) -> list[C
             if set(seeds_of(rows, scene, claimed)) & set(seeds_of(rows, scene, other))]
 
 
+def _verdict(c: Comparison) -> str:
+    """The verdict in words; one pair has no spread to test against."""
+    return WORDS[c.verdict] if len(c.differences) >= 2 else "too few pairs"
+
+
 def _line(c: Comparison) -> str:
     a, b, d = c.claimed_scores, c.other_scores, DIGITS.get(c.metric, 3)
+    p = f"{c.p_value:.3f}" if len(a) >= 2 else "-"
     return (f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} | {c.other} {b.mean():.{d}f} | "
-            f"{c.difference:+.{d}f} ± {c.differences.std():.{d}f} (n={len(a)}) | {c.p_value:.3f} | {WORDS[c.verdict]} |")
+            f"{c.difference:+.{d}f} ± {c.differences.std():.{d}f} (n={len(a)}) | {p} | {_verdict(c)} |")
 
 
 def markdown_report(by_level: dict[str, list[dict]]) -> str:
     """Per level: how many missions, then each utility variant against STAIR, pooled and per scene."""
     out = ["Scores: each seed's mean over the 10 steps; the paired difference is the variant minus STAIR over the "
-           "(scene, seed) pairs both ran; p from the paired t-test; a verdict needs p < 0.05.", ""]
+           "(scene, seed) pairs both ran, ± the standard deviation of those differences; p from the paired t-test; a "
+           "verdict needs p < 0.05 (and at least two pairs).", ""]
     header = ["| scenes | metric | variant | STAIR | paired difference | p | verdict |", "|---|---|---|---|---|---|---|"]
     for level in LEVELS:
         rows = by_level.get(level, [])
@@ -84,7 +91,7 @@ def markdown_report(by_level: dict[str, list[dict]]) -> str:
         if not table:
             out += ["No pair of a utility variant and STAIR has finished yet.", ""]
             continue
-        verdicts = [f"{variant} on {metric}: **{WORDS[c.verdict]}**" for variant in AGAINST_STAIR for metric in METRICS
+        verdicts = [f"{variant} on {metric}: **{_verdict(c)}**" for variant in AGAINST_STAIR for metric in METRICS
                     if (c := pooled(rows, metric, variant, "stair")) is not None]
         out += ["Pooled over the scenes: " + "; ".join(verdicts) + ".", "", *header, *table, ""]
     return "\n".join(out)

@@ -225,8 +225,9 @@ class NoisySegmenter:
 
 
 def label_error_rate(exact: np.ndarray, reported: np.ndarray) -> dict[str, float]:
-    """How wrong a reported label image is: the fraction of wrong pixels, and of object pixels reported as
-    another class (missed or confused) and of background pixels reported as an object (spurious)."""
+    """How wrong a reported label image is: the fraction of wrong pixels, of object pixels reported as another
+    class (by any component: missed, confused, bled over or covered by a blob) and of background pixels reported
+    as an object (spurious)."""
     exact, reported = np.asarray(exact), np.asarray(reported)
     objects = exact != BACKGROUND
     return {"wrong": float(np.mean(exact != reported)),

@@ -152,7 +152,7 @@ def target_probability(sem: torch.Tensor, targets: tuple[int, ...]) -> torch.Ten
 
 
 def target_mask(sem: torch.Tensor, targets: tuple[int, ...], dilation: int = 0) -> torch.Tensor:
-    """delta(r) of Eq. 13: rays whose rendered class argmax is a target (V, H, W), optionally dilated."""
+    """delta(r) of Eq. 14: rays whose rendered class argmax is a target (V, H, W), optionally dilated."""
     mask = torch.isin(sem.argmax(dim=-1), torch.as_tensor(targets, device=sem.device))
     if dilation > 0:
         k = 2 * dilation + 1

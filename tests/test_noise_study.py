@@ -34,3 +34,12 @@ def test_study_rows_take_the_exact_levels_paper_variants_from_the_comparison(tmp
     stored = study_rows(RESULTS_DIR, log=lambda m: None)
     variants = {r["variant"] for r in stored["none"]}
     assert {"stair", "exploration", "max_distance"} <= variants and not variants & {"fixed", "ste", "uniform"}
+
+
+def test_a_single_pair_gets_no_verdict():
+    """One (scene, seed) pair has no spread: no p-value, and the report says so instead of a verdict."""
+    rows = rows_of("stair", "scene1", [0], 0.5) + rows_of("stair_soft", "scene1", [0], 0.7)
+    report = markdown_report({"none": rows})
+    assert "stair_soft on f1: **too few pairs**" in report
+    assert "| scene1 | f1 | stair_soft 0.700 | stair 0.500 | +0.200 ± 0.000 (n=1) | - | too few pairs |" in report
+    assert "nan" not in report

@@ -4,7 +4,9 @@ A training iteration allocates and frees tensors of tens to hundreds of MB (samp
 serves blocks above its mmap threshold (at most 32 MB, adjusted at run time) straight from the kernel and
 returns them on free, so every iteration page-faults the same memory in again: at the paper preset half
 of an iteration's time was the kernel zeroing pages (``benchmarks/bench_paper_cpu.py``, README). Raising
-the threshold keeps such blocks in the heap, where the next iteration reuses them. The heap then holds
+the threshold keeps such blocks in the heap, where the next iteration reuses them; raising the trim threshold
+with it keeps glibc from handing a freed block at the heap's top straight back (its default, 128 kB, did so
+for every large block freed last: a planning step's 46 MB sample table was faulted in again per candidate). The heap then holds
 the largest working set of any phase (training, evaluation, planning) and fragments across them, so a
 mission hands the freed blocks back between its phases (``release_freed_memory``): a phase's first
 allocations fault their pages in once, and the mission's peak is that of its largest phase, not their sum.
@@ -14,8 +16,9 @@ import ctypes
 import ctypes.util
 import sys
 
-M_MMAP_THRESHOLD = -3  # mallopt's parameter number (malloc.h)
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # mallopt's parameter numbers (malloc.h)
 MMAP_THRESHOLD = 1 << 30  # bytes: blocks below 1 GiB come from the reusable heap
+TRIM_THRESHOLD = 1 << 30  # bytes: free memory at the heap's top is kept up to 1 GiB (until release_freed_memory)
 
 
 def _glibc():
@@ -30,9 +33,10 @@ def _glibc():
 
 
 def keep_freed_memory() -> bool:
-    """Raise glibc's mmap threshold; True when the C library took the setting."""
+    """Raise glibc's mmap and trim thresholds; True when the C library took both settings."""
     libc = _glibc()
-    return libc is not None and bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD))
+    return libc is not None and bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)) and bool(
+        libc.mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD))
 
 
 def release_freed_memory() -> bool:

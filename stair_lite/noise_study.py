@@ -7,7 +7,10 @@ At level none the paper's variants are the missions of ``comparison_lite`` (the 
 
 Each utility variant is compared with STAIR as ``claims`` compares planners: per-seed means over the steps,
 a paired t-test at ``claims.ALPHA``; per scene, and pooled over the scenes (pairs of the same scene and seed).
-A verdict reads "helps" (the variant is better), "hurts" or "no significant difference".
+A verdict reads "helps" (the variant is better), "hurts" or "no significant difference". Beside them, per
+level, STAIR against the two semantics-blind baselines (pooled over the scenes): does targeting still pay when
+the labels that define the targets lie? A verdict there reads "STAIR better", "STAIR worse" or "no significant
+difference".
 """
 from __future__ import annotations
 
@@ -21,9 +24,11 @@ from .experiments import RESULTS_DIR, collect
 LEVELS = ("none", "low", "high")
 VARIANTS = ("stair", "stair_semantic", "stair_soft", "exploration", "max_distance")
 AGAINST_STAIR = ("stair_semantic", "stair_soft")  # the utilities beyond the paper, each against the paper's
+BASELINES = ("exploration", "max_distance")  # semantics-blind: STAIR is compared against each
 METRICS = ("psnr", "f1")
 EXACT_FOLDER = "comparison_lite"  # level none's stair, exploration and max_distance
 WORDS = {"holds": "helps", "reversed": "hurts", "not significant": "no significant difference"}
+STAIR_WORDS = {"holds": "STAIR better", "reversed": "STAIR worse", "not significant": "no significant difference"}
 
 
 def folder(level: str, root: Path = RESULTS_DIR) -> Path:
@@ -59,16 +64,27 @@ def per_scene(rows: list[dict], metric: str, claimed: str, other: str) -> list[C
             if set(seeds_of(rows, scene, claimed)) & set(seeds_of(rows, scene, other))]
 
 
-def _verdict(c: Comparison) -> str:
+def _verdict(c: Comparison, words: dict[str, str] = WORDS) -> str:
     """The verdict in words; one pair has no spread to test against."""
-    return WORDS[c.verdict] if len(c.differences) >= 2 else "too few pairs"
+    return words[c.verdict] if len(c.differences) >= 2 else "too few pairs"
 
 
-def _line(c: Comparison) -> str:
+def _line(c: Comparison, words: dict[str, str] = WORDS) -> str:
     a, b, d = c.claimed_scores, c.other_scores, DIGITS.get(c.metric, 3)
     p = f"{c.p_value:.3f}" if len(a) >= 2 else "-"
     return (f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} | {c.other} {b.mean():.{d}f} | "
-            f"{c.difference:+.{d}f} ± {c.differences.std():.{d}f} (n={len(a)}) | {p} | {_verdict(c)} |")
+            f"{c.difference:+.{d}f} ± {c.differences.std():.{d}f} (n={len(a)}) | {p} | {_verdict(c, words)} |")
+
+
+def _baselines(rows: list[dict]) -> list[str]:
+    """STAIR against each semantics-blind baseline at one level, pooled over the scenes (empty: no pair yet)."""
+    pairs = [c for baseline in BASELINES for metric in METRICS if (c := pooled(rows, metric, "stair", baseline))]
+    if not pairs:
+        return []
+    return ["STAIR against the semantics-blind baselines, pooled over the scenes (the difference is STAIR minus "
+            "the baseline): " + "; ".join(f"{c.other} on {c.metric}: **{_verdict(c, STAIR_WORDS)}**" for c in pairs)
+            + ".", "", "| scenes | metric | STAIR | baseline | paired difference | p | verdict |",
+            "|---|---|---|---|---|---|---|", *[_line(c, STAIR_WORDS) for c in pairs], ""]
 
 
 def markdown_report(by_level: dict[str, list[dict]]) -> str:
@@ -89,9 +105,9 @@ def markdown_report(by_level: dict[str, list[dict]]) -> str:
                 if c is not None:
                     table += [_line(c)] + [_line(s) for s in per_scene(rows, metric, variant, "stair")]
         if not table:
-            out += ["No pair of a utility variant and STAIR has finished yet.", ""]
+            out += ["No pair of a utility variant and STAIR has finished yet.", "", *_baselines(rows)]
             continue
         verdicts = [f"{variant} on {metric}: **{_verdict(c)}**" for variant in AGAINST_STAIR for metric in METRICS
                     if (c := pooled(rows, metric, variant, "stair")) is not None]
-        out += ["Pooled over the scenes: " + "; ".join(verdicts) + ".", "", *header, *table, ""]
+        out += ["Pooled over the scenes: " + "; ".join(verdicts) + ".", "", *header, *table, "", *_baselines(rows)]
     return "\n".join(out)

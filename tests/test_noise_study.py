@@ -43,3 +43,14 @@ def test_a_single_pair_gets_no_verdict():
     assert "stair_soft on f1: **too few pairs**" in report
     assert "| scene1 | f1 | stair_soft 0.700 | stair 0.500 | +0.200 ± 0.000 (n=1) | - | too few pairs |" in report
     assert "nan" not in report
+
+
+def test_stair_against_a_baseline_is_worded_from_stairs_side():
+    """A baseline that scores lower than STAIR on every pair makes STAIR better; no baseline pair, no table."""
+    stair = rows_of("stair", "scene1", range(5), 0.5)
+    weaker = [{**r, "variant": "exploration", "f1": r["f1"] - 0.1 - 0.001 * r["seed"]} for r in stair]
+    report = markdown_report({"high": stair + weaker})
+    assert "exploration on f1: **STAIR better**" in report
+    assert "| all scenes | f1 | stair 0.520 | exploration 0.418 | +0.102 ± 0.001 (n=5) |" in report
+    assert "max_distance on" not in report
+    assert "semantics-blind" not in markdown_report({"high": stair})

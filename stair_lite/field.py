@@ -97,6 +97,18 @@ class Located:
         return _TrilinearLookup.apply(table, self.index, self.weights, self.grad_into_existing)
 
 
+def mlp_on_parts(net: nn.Sequential, *parts: torch.Tensor) -> torch.Tensor:
+    """``net(torch.cat(parts, dim=1))`` without building the concatenated input: the first linear layer is applied
+    to each part with its slice of the weights, and the products summed (the same sum in another order; a
+    concatenation of narrow columns is a row-by-row copy on a CPU, as costly as the layer itself)."""
+    first, start, out = net[0], 0, None
+    for part in parts:
+        term = F.linear(part, first.weight[:, start : start + part.shape[1]], first.bias if out is None else None)
+        out = term if out is None else out + term
+        start += part.shape[1]
+    return net[1:](out)
+
+
 def mlp(n_in: int, hidden: tuple[int, ...], n_out: int) -> nn.Sequential:
     """A ReLU MLP with the given hidden widths."""
     layers, width = [], n_in
@@ -193,12 +205,12 @@ class SemanticField(nn.Module):
 
         The head reads gamma without the raw x (``pe[:, 3:]``, the sin/cos terms), as the reference code: a head
         that reads x extrapolates occupancy into volume no ray has reached (README, "No phantom")."""
-        logit = self.occ_mlp(torch.cat([f_occ, pe[:, 3:]], dim=1)).squeeze(1) + self.cfg.occupancy_shift
+        logit = mlp_on_parts(self.occ_mlp, f_occ, pe[:, 3:]).squeeze(1) + self.cfg.occupancy_shift
         return -torch.expm1(-F.softplus(logit))
 
     def colour_from(self, f_rgb: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:
         """c = sigmoid(MLP_rgb(f_rgb, gamma)) in [0, 1]^3."""
-        return torch.sigmoid(self.rgb_mlp(torch.cat([f_rgb, pe], dim=1)))
+        return torch.sigmoid(mlp_on_parts(self.rgb_mlp, f_rgb, pe))
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
         """Occupancy (N,), colour (N, 3) and semantic logits (N, P) at world points x (N, 3)."""

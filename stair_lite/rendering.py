@@ -157,23 +157,25 @@ def is_target(sem_logits: torch.Tensor, targets: tuple[int, ...]) -> torch.Tenso
 
 
 def sample_appearance(field, samples: dict[str, torch.Tensor], active: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Colour (R S, 3) and class probabilities (R S, P) of the ``active`` samples (a flat mask, a subset of
-    the evaluated ones), zero elsewhere: the appearance grid is read at the active samples only (or taken
-    from ``samples`` when ``sample_field`` already read it)."""
-    n, n_classes = len(active), field.cfg.sem_channels
-    rgb = torch.zeros(n, 3, device=active.device)
-    probs = torch.zeros(n, n_classes, device=active.device)
-    if not active.any():
-        return rgb, probs
+    """Colour (K, 3) and class probabilities (K, P) of the K ``active`` samples (a flat mask, a subset of the
+    evaluated ones), in flat order: the appearance grid is read at the active samples only (or taken from
+    ``samples`` when ``sample_field`` already read it)."""
     rows = active[samples["evaluate"]]  # positions of the active samples among the evaluated ones
     located = samples["located"].subset(rows)
     if "f_rgb" in samples:
-        f_rgb, f_sem = samples["f_rgb"][rows], samples["sem_logits"].view(n, -1)[active]
+        f_rgb, f_sem = samples["f_rgb"][rows], samples["sem_logits"].view(len(active), -1)[active]
     else:
         f_rgb, f_sem = field.appearance_at(located)
-    where = (active.nonzero().squeeze(1),)
-    return (rgb.index_put(where, field.colour_from(f_rgb, located.pe)),
-            probs.index_put(where, torch.softmax(f_sem, dim=-1)))
+    return field.colour_from(f_rgb, located.pe), torch.softmax(f_sem, dim=-1)
+
+
+def composite(values: torch.Tensor, rows: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
+    """sum_i w_i v_i per ray (Eqs. 2 and 4) over the samples at flat indices ``rows`` of the weights (R, S):
+    ``values`` (K, C) of those samples only; every other sample's term is left out (its weight cannot change
+    the pixel) -> (R, C)."""
+    n_rays, n_samples = weights.shape
+    per_ray = torch.zeros(n_rays, values.shape[1], dtype=values.dtype, device=values.device)
+    return per_ray.index_add(0, rows // n_samples, weights.reshape(-1)[rows, None] * values)
 
 
 def render_rays(
@@ -199,19 +201,19 @@ def render_rays(
     """
     samples = sample_field(field, origins, dirs, cfg, n_samples, generator, depth, skip, semantics=targets is not None)
     t, occ = samples["t"], samples["occ"]
-    r, s = t.shape
     if targets is not None:
         occ = occ * is_target(samples["sem_logits"], targets)
     weights, transmittance = compositing_weights(occ)
     acc = weights.sum(dim=1)
 
     active = ((weights.detach() > colour_weight_threshold) & (occ.detach() > cfg.colour_min_occupancy)).view(-1)
+    rows = active.nonzero().squeeze(1)
     rgb, probs = sample_appearance(field, samples, active)
-    colour = (weights[..., None] * rgb.view(r, s, 3)).sum(dim=1) + (1.0 - acc)[:, None]
+    colour = composite(rgb, rows, weights) + (1.0 - acc)[:, None]
     depth_map = (weights * t).sum(dim=1)
     # Semantic rendering (Eq. 4) uses detached weights, as the reference code does: semantics do not
     # move geometry. Like colour, class probabilities are computed only where the weight matters.
-    sem = (weights.detach()[..., None] * probs.view(r, s, -1)).sum(dim=1)
+    sem = composite(probs, rows, weights.detach())
     sem = sem + torch.nn.functional.one_hot(torch.tensor(BACKGROUND), NUM_CLASSES).to(sem) * (1.0 - acc.detach())[:, None]
     return {
         "rgb": colour,
@@ -296,9 +298,10 @@ def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, c
         weights = [compositing_weights(o_)[0] for o_ in (occ, occ * above)]
         active = ((weights[0] > colour_weight_threshold) | (weights[1] > colour_weight_threshold)) & (
             occ > cfg.colour_min_occupancy)
-        rgb = sample_appearance(field, samples, active.view(-1))[0].view(*occ.shape, 3)
+        rows = active.view(-1).nonzero().squeeze(1)
+        rgb = sample_appearance(field, samples, active.view(-1))[0]
         for image, wt in zip(images, weights):
-            image[chunk] = (wt[..., None] * rgb).sum(dim=1) + (1.0 - wt.sum(dim=1))[:, None]
+            image[chunk] = composite(rgb, rows, wt) + (1.0 - wt.sum(dim=1))[:, None]
     return [list(image.clamp(0, 1).view(len(poses), h, w, 3).cpu().numpy()) for image in images]
 
 

@@ -100,3 +100,19 @@ def test_occupancy_head_reads_no_raw_position():
     torch.testing.assert_close(field.occupancy_from(f_occ, pe), field.occupancy_from(f_occ, moved))
     f_rgb = torch.randn(50, 6, generator=torch.Generator().manual_seed(2))
     assert not torch.allclose(field.colour_from(f_rgb, pe), field.colour_from(f_rgb, moved))
+
+
+@pytest.mark.parametrize("hidden", [(), (8,), (16, 16)])
+def test_an_mlp_on_parts_is_the_mlp_on_their_concatenation(hidden):
+    """The heads read (features, gamma) without concatenating them: the same values and the same gradients."""
+    from stair_lite.field import mlp, mlp_on_parts
+
+    torch.manual_seed(0)
+    net = mlp(9, hidden, 2)
+    a, b = torch.randn(50, 3, requires_grad=True), torch.randn(50, 6)
+    whole, split = net(torch.cat([a, b], dim=1)), mlp_on_parts(net, a, b)
+    torch.testing.assert_close(split, whole)
+    grad_whole = torch.autograd.grad(whole.sum(), [a, net[0].weight])
+    grad_split = torch.autograd.grad(split.sum(), [a, net[0].weight])
+    for g_split, g_whole in zip(grad_split, grad_whole):
+        torch.testing.assert_close(g_split, g_whole)

@@ -71,3 +71,16 @@ def test_training_rays_end_just_behind_their_measured_surface():
     assert t_off[0].max() > 3.4  # switched off: the whole ray
     t_render = sample_field(field, origins, dirs, cfg)["t"]  # rendering (no measured depth) samples the whole ray
     assert t_render[0].max() > 3.4
+
+
+def test_compositing_the_active_samples_is_the_dense_sum_over_them():
+    """composite() sums w_i v_i over the listed samples only: the dense sum with every other term zero."""
+    from stair_lite.rendering import composite
+
+    g = torch.Generator().manual_seed(0)
+    weights, values = torch.rand(30, 12, generator=g), torch.rand(30, 12, 4, generator=g)
+    active = torch.rand(30, 12, generator=g) > 0.6
+    rows = active.view(-1).nonzero().squeeze(1)
+    dense = (weights[..., None] * values * active[..., None]).sum(dim=1)
+    torch.testing.assert_close(composite(values.view(-1, 4)[rows], rows, weights), dense)
+    assert composite(values.view(-1, 4)[:0], rows[:0], weights).abs().sum() == 0  # no active sample: zero

@@ -3,7 +3,8 @@
 The notebooks run once per test session (nbval); each notebook whose every cell passed is written, with the
 outputs of that run, to ``build/executed/`` (``STAIR_EXECUTED_DIR`` overrides), so that the book
 (``python -m stair_lite.book``) is built from exactly the copies that were checked. The book's own test
-(``tests/test_book.py``) runs after the notebooks.
+(``tests/test_book.py``) runs after the notebooks. The session ends with each notebook's run time (the sum of its
+cells'), against the course's budget of ``NOTEBOOK_BUDGET_S`` per notebook on a 2-core machine.
 """
 import os
 from pathlib import Path
@@ -13,6 +14,8 @@ import nbformat
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 EXECUTED_DIR = Path(os.environ.get("STAIR_EXECUTED_DIR", Path(__file__).parent / "build" / "executed"))
 _passed: dict = {}  # nbval's notebook node -> [its cells collected, its cells passed]; written when all passed
+_seconds: dict = {}  # notebook file name -> seconds its cells took in this session
+NOTEBOOK_BUDGET_S = 240  # a notebook at learner defaults runs in at most 4 minutes (README, "Teaching")
 
 
 def pytest_collection_modifyitems(session, config, items):
@@ -24,6 +27,9 @@ def pytest_collection_modifyitems(session, config, items):
 
 
 def pytest_runtest_makereport(item, call):
+    if call.when == "call" and hasattr(item, "test_outputs"):
+        name = Path(str(item.fspath)).name
+        _seconds[name] = _seconds.get(name, 0.0) + call.duration
     if call.when == "call" and hasattr(item, "test_outputs") and call.excinfo is None:
         item.cell.outputs = item.test_outputs or []
         counts = _passed[item.parent]
@@ -37,3 +43,13 @@ def pytest_collection_finish(session):
     """No copy of an older run beside the notebooks this session runs (a failed one would leave it there)."""
     for node in _passed:
         (EXECUTED_DIR / Path(str(node.fspath)).name).unlink(missing_ok=True)
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Each notebook's run time in this session (the sum of its cells'), flagged when over the budget."""
+    if not _seconds:
+        return
+    terminalreporter.section("notebook run times")
+    for name, seconds in sorted(_seconds.items()):
+        flag = f"  over the {NOTEBOOK_BUDGET_S} s budget" if seconds > NOTEBOOK_BUDGET_S else ""
+        terminalreporter.write_line(f"{seconds:7.1f} s  {name}{flag}")

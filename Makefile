@@ -25,7 +25,7 @@ test: setup-browser
 	STAIR_BOOK_REQUIRED=1 $(PY) -m pytest tests notebooks --nbval-lax --nbval-current-env --nbval-cell-timeout=600 --durations=15 -ra
 
 unit: setup
-	$(PY) -m pytest tests -ra
+	$(PY) -m pytest tests -ra -m "not release"
 
 notebooks: setup
 	$(PY) -m pytest notebooks --nbval-lax --nbval-current-env --nbval-cell-timeout=600 --durations=15 -ra

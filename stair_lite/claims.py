@@ -167,17 +167,14 @@ def _simulators(spec, kept_objects, intrinsics: Intrinsics) -> tuple[Simulator, 
 
 
 def object_pixels(scene_name: str, index: int, views: np.ndarray, intrinsics: Intrinsics | None = None) -> np.ndarray:
-    """How many pixels of each view (elevation, azimuth) see object ``index`` of a scene: the pixels
-    whose depth changes when that object is removed from the scene."""
+    """How many pixels of each view (elevation, azimuth) see object ``index`` of a scene: the pixels whose
+    nearest surface is that object's, i.e. whose depth would change if it were removed."""
     spec = load_scene_spec(scene_name)
     if not 0 <= index < len(spec.objects):
         raise ValueError(f"scene {scene_name!r} has objects 0..{len(spec.objects) - 1}, got index {index}")
-    full, removed = _simulators(spec, spec.objects[:index] + spec.objects[index + 1:], intrinsics or Intrinsics.from_fov(100, 100))
-    counts = []
-    for elevation, azimuth in np.asarray(views, dtype=float).reshape(-1, 2):
-        a, b = full.render_view(elevation, azimuth).depth, removed.render_view(elevation, azimuth).depth
-        counts.append(int((np.abs(a - b) > 1e-4).sum()))
-    return np.array(counts)
+    sim = Simulator(build_scene(spec), intrinsics or Intrinsics.from_fov(100, 100))
+    return np.array([int((sim.objects_seen(elevation, azimuth) == index).sum())
+                     for elevation, azimuth in np.asarray(views, dtype=float).reshape(-1, 2)])
 
 
 def hidden_target_fraction(scene_name: str, views: np.ndarray, intrinsics: Intrinsics | None = None) -> float:

@@ -45,10 +45,11 @@ class Simulator:
         self.scene = scene
         self.intrinsics = intrinsics or Intrinsics.from_fov()
         self._pyscene = pyrender.Scene(bg_color=[1.0, 1.0, 1.0, 1.0], ambient_light=[1.0, 1.0, 1.0])
-        self._seg_ids = {}
-        for mesh, cls in scene.labelled_meshes():
+        self._seg_ids, self._object_ids = {}, {}
+        for position, (mesh, cls) in enumerate(scene.labelled_meshes()):  # the ground first, then the objects
             node = self._pyscene.add(pyrender.Mesh.from_trimesh(mesh, smooth=False))
             self._seg_ids[node] = cls + 1  # id 0 means "nothing hit", so classes are shifted by one
+            self._object_ids[node] = position  # 0: the ground (or nothing); object i is i + 1
         self._camera_node = None
         self._camera_intrinsics = None
         self._set_camera(self.intrinsics)
@@ -89,6 +90,16 @@ class Simulator:
     def render_view(self, elevation: float, azimuth: float, intrinsics: Intrinsics | None = None) -> Measurement:
         """Render the hemisphere view (elevation, azimuth), in radians."""
         return self.render(view_to_pose(elevation, azimuth), intrinsics)
+
+    def objects_seen(self, elevation: float, azimuth: float) -> np.ndarray:
+        """(H, W) index of the object each pixel of the view (elevation, azimuth) sees first, -1 where it sees
+        the ground or nothing: one segmentation pass with an id per object instead of per class."""
+        if self.intrinsics != self._camera_intrinsics:
+            self._set_camera(self.intrinsics)
+        self._pyscene.set_pose(self._camera_node, view_to_pose(elevation, azimuth) @ OPENCV_TO_OPENGL)
+        renderer = shared_renderer(self.intrinsics.width, self.intrinsics.height)
+        seg, _ = renderer.render(self._pyscene, flags=pyrender.RenderFlags.SEG, seg_node_map=self._object_ids)
+        return seg[..., 0].astype(np.int64) - 1
 
 
 def target_only_image(m: Measurement, targets) -> np.ndarray:

@@ -4,6 +4,7 @@ import re
 import shutil
 
 import nbformat
+import pytest
 
 from stair_lite import course
 from stair_lite.exercises import mine_or_reference
@@ -92,3 +93,66 @@ def test_grading_gives_full_points_to_the_solutions_and_fewer_to_a_wrong_answer(
     table = tmp_path / "grades.csv"
     course.write_table(list(grades.values()), table)
     assert table.read_text().splitlines()[0] == "student,notebook,score,max_score,failed_checks"
+
+
+# Per notebook after the first: one answer deliberately wrong (grade id -> the solution's line and its mistake) and,
+# in the notebooks with three exercises, one left as the release's stub; every other answer is the solution.
+MISTAKES = {
+    "02_voxel_occupancy_field.ipynb": ("02_transmittance_and_weights", "T = np.cumprod(passing, axis=1)",
+                                       "T = np.cumprod(1.0 - occ, axis=1)"),            # inclusive transmittance
+    "03_semantic_rendering.ipynb": ("03_render_semantics", "s[BACKGROUND] += 1.0 - weights.sum()",
+                                    "pass"),                                              # no background share
+    "04_entropy_utility.ipynb": ("04_utility", "epsilon * h_ray.sum(axis=(1, 2))",
+                                 "epsilon * (h_ray * ~mask).sum(axis=(1, 2))"),           # exploration off-target only
+    "05_planning_loop.ipynb": ("05_first_step_above", 'return r["step"]', "return records.index(r)"),  # an index
+    "06_baseline_comparison.ipynb": ("06_paired_p_value", "return float(2 * stats.t.sf(", "return float(1 * stats.t.sf("),
+    "07_when_labels_lie.ipynb": ("07_class_entropy", "np.log(np.where(", "np.log2(np.where("),  # bits, not nats
+}
+UNANSWERED = {"02_voxel_occupancy_field.ipynb": "02_composite", "03_semantic_rendering.ipynb": "03_replay_probabilities",
+              "04_entropy_utility.ipynb": "04_ray_entropy"}
+
+
+def answered(source: str) -> str:
+    """A solution cell as a learner who wrote the solution submits it: without nbgrader's region markers."""
+    return "\n".join(line for line in source.splitlines() if line.strip() not in ("### BEGIN SOLUTION", "### END SOLUTION"))
+
+
+@pytest.mark.release
+def test_the_release_with_one_wrong_answer_per_notebook_runs_to_the_end_and_loses_those_points(tmp_path):
+    """Notebooks 02-07 as a learner submits them: the student release with its answers filled in, one of them
+    wrong per notebook and (where there are three) one left unanswered. Grading runs each top to bottom: only
+    the checks of those two answers fail, every later cell runs on the reference, and the points drop by theirs."""
+    notebooks = [p for p in NOTEBOOKS if p.name in MISTAKES]
+    assert len(notebooks) == len(NOTEBOOKS) - 1  # notebook 01 is graded three ways above
+    released = {p.name: p for p in course.student_release(tmp_path / "release", notebooks)}
+    student = tmp_path / "submissions" / "learner"
+    student.mkdir(parents=True)
+    expected_failed, points = {}, {}
+    for source in notebooks:
+        wrong_id, right, mistake = MISTAKES[source.name]
+        solutions = {grading(c)["grade_id"]: c.source for c in nbformat.read(source, as_version=4).cells
+                     if grading(c).get("solution")}
+        nb = nbformat.read(released[source.name], as_version=4)
+        for cell in nb.cells:
+            g = grading(cell)
+            points[(source.name, g.get("grade_id"))] = g.get("points", 0)
+            if g.get("solution") and g["grade_id"] != UNANSWERED.get(source.name):
+                cell.source = answered(solutions[g["grade_id"]])
+                if g["grade_id"] == wrong_id:
+                    assert right in cell.source, (source.name, right)
+                    cell.source = cell.source.replace(right, mistake)
+        nbformat.write(nb, student / source.name)
+        expected_failed[source.name] = tuple(sorted(f"{i}_check" for i in (wrong_id, UNANSWERED.get(source.name)) if i))
+
+    grades = {g.notebook: g for g in course.grade(tmp_path / "submissions", notebooks, keep=tmp_path / "executed")}
+    for source in notebooks:
+        g = grades[source.name]
+        assert g.failed == expected_failed[source.name], source.name
+        assert g.score == g.max_score - sum(points[(source.name, c)] for c in g.failed) < g.max_score, source.name
+        executed = nbformat.read(tmp_path / "executed" / "learner" / course.ASSIGNMENT / source.name, as_version=4)
+        errors = [grading(c).get("grade_id") for c in executed.cells
+                  if any(o.get("output_type") == "error" for o in c.get("outputs", []))]
+        assert sorted(errors) == list(g.failed), source.name  # only the failing checks raised; the rest ran
+        assert all(c.execution_count for c in executed.cells if c.cell_type == "code"), source.name  # every cell ran
+        printed = "".join(o.get("text", "") for c in executed.cells for o in c.get("outputs", []))
+        assert printed.count("does not pass its check yet") >= len(g.failed), source.name  # fell back on the reference

@@ -26,23 +26,26 @@ def ray_cast(scene, intrinsics, pose):
     meshes = scene.labelled_meshes()
     merged = trimesh.util.concatenate([m for m, _ in meshes])
     face_class = np.concatenate([np.full(len(m.faces), c) for m, c in meshes])
+    face_object = np.concatenate([np.full(len(m.faces), i - 1) for i, (m, _) in enumerate(meshes)])  # ground: -1
     origins, dirs = pixel_rays(intrinsics, pose)
     index_tri, index_ray, locations = merged.ray.intersects_id(origins, dirs, multiple_hits=False, return_locations=True)
     depth = np.zeros(len(origins))
     labels = np.zeros(len(origins), dtype=int)
+    objects = np.full(len(origins), -1)
     hit_mask = np.zeros(len(origins), dtype=bool)
     depth[index_ray] = (locations - origins[index_ray]) @ pose[:3, 2]  # z-depth
     labels[index_ray] = face_class[index_tri]
+    objects[index_ray] = face_object[index_tri]
     hit_mask[index_ray] = True
     shape = (intrinsics.height, intrinsics.width)
-    return depth.reshape(shape), labels.reshape(shape), hit_mask.reshape(shape)
+    return depth.reshape(shape), labels.reshape(shape), hit_mask.reshape(shape), objects.reshape(shape)
 
 
 @pytest.mark.parametrize("view", [(np.pi / 2, 0.0), (0.6, 0.8), (0.12, 3.5)])
 def test_depth_and_labels_match_ray_casting(scene, sim, view):
     pose = view_to_pose(*view)
     m = sim.render(pose)
-    depth, labels, hit = ray_cast(scene, sim.intrinsics, pose)
+    depth, labels, hit, _ = ray_cast(scene, sim.intrinsics, pose)
     assert np.array_equal(m.depth > 0, hit)
     # Exact labels and depth, except at a handful of pixels whose centre grazes a triangle edge,
     # where the two rasterisers may pick different triangles.
@@ -51,6 +54,16 @@ def test_depth_and_labels_match_ray_casting(scene, sim, view):
     error = np.abs(m.depth - depth)[hit]
     assert np.mean(error > 2e-3) < 1e-3
     assert np.median(error) < 1e-4
+
+
+@pytest.mark.parametrize("view", [(np.pi / 2, 0.0), (0.3, 2.0)])
+def test_objects_seen_match_ray_casting(scene, sim, view):
+    """The object each pixel sees first (one segmentation pass with an id per object) is the object of the
+    triangle a ray through that pixel hits first, except at a handful of pixels on triangle edges."""
+    _, _, _, objects = ray_cast(scene, sim.intrinsics, view_to_pose(*view))
+    seen = sim.objects_seen(*view)
+    assert set(np.unique(seen)) <= set(range(-1, len(scene.object_meshes))) and (seen >= 0).sum() > 100
+    assert np.mean(seen != objects) < 1e-3
 
 
 def test_images_have_the_documented_types(sim):

@@ -2,6 +2,7 @@
 import json
 import re
 import shutil
+import warnings
 
 import nbformat
 import pytest
@@ -53,6 +54,40 @@ def test_the_student_release_holds_no_solution_code(tmp_path):
         assert all(not c.metadata.get("jupyter", {}).get("source_hidden") for c in solutions)
         assert all(course.RUN_PAST in c.metadata.get("tags", []) for c in nb.cells if grading(c).get("grade"))
         assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code")
+
+
+def test_every_check_passes_the_reference_silently(capfd):
+    """nbgrader gives a graded cell no points when it writes to stderr (a warning, say), not only when it raises:
+    each graded cell, run with the learner's functions bound to the checkers' references, must stay silent there."""
+    for path in NOTEBOOKS:
+        namespace = {}  # a notebook's checks import their checkers once
+        for cell in nbformat.read(path, as_version=4).cells:
+            if not grading(cell).get("grade"):
+                continue
+            exec("\n".join(line for line in cell.source.splitlines() if line.startswith(("from ", "import ", " "))), namespace)
+            for checker, function in re.findall(r"^(check_\w+)\((\w+)\)$", cell.source, re.M):
+                namespace[function] = namespace[checker].reference
+            capfd.readouterr()
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                exec(cell.source, namespace)
+            assert capfd.readouterr().err == "", grading(cell)["grade_id"]
+
+
+def test_a_right_answer_that_warns_gets_a_printed_note_and_keeps_its_points(capfd):
+    """A warning on stderr would cost the learner the check's points under nbgrader; the checkers show it on stdout."""
+    from stair_lite.exercises.field import check_training_step
+
+    def training_step(model, optimizer, render, loss_fn, batch):
+        loss = loss_fn(render(model, batch), batch)
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+        return float(loss)  # right, but torch warns: a tensor that requires grad converted to a number
+
+    check_training_step(training_step)
+    out, err = capfd.readouterr()
+    assert err == "" and out.count("note: training_step warned: Converting a tensor with requires_grad=True") == 1
 
 
 def test_a_failing_answer_falls_back_on_the_reference(capsys):

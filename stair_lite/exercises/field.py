@@ -269,7 +269,7 @@ def _step_reference(model, optimizer, render, loss_fn, batch) -> float:
     optimizer.zero_grad()
     loss.backward()
     optimizer.step()
-    return float(loss)
+    return loss.item()
 
 
 def _tiny_problem(seed: int):

@@ -14,6 +14,7 @@ SUBMISSIONS holds one folder per student with that student's notebooks (any subs
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import os
 import shutil
@@ -78,6 +79,23 @@ def _prepare_for_students(path: Path) -> None:
     nbformat.write(nb, path)
 
 
+@contextlib.contextmanager
+def _static_widgets():
+    """While grading, the kernels show widgets as their static figures (``widgets.STATIC_ONLY``): nbgrader's
+    notebook runner can stall for a whole cell timeout after a cell that displays a live widget."""
+    from .widgets import STATIC_ONLY
+
+    before = os.environ.get(STATIC_ONLY)
+    os.environ[STATIC_ONLY] = "1"  # the kernels nbgrader starts inherit this process's environment
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(STATIC_ONLY)
+        else:
+            os.environ[STATIC_ONLY] = before
+
+
 def student_release(out: str | Path, notebooks: list[Path] | None = None) -> list[Path]:
     """Write the student edition of the notebooks into ``out``: no solution code, no outputs. Returns the files."""
     notebooks = _notebooks(notebooks)
@@ -130,7 +148,8 @@ def grade(submissions: str | Path, notebooks: list[Path] | None = None, keep: st
             target.mkdir(parents=True)
             for f in files:
                 shutil.copy(f, target / f.name)
-            result = api.autograde(ASSIGNMENT, folder.name, force=True, create=True)
+            with _static_widgets():
+                result = api.autograde(ASSIGNMENT, folder.name, force=True, create=True)
             if not result["success"]:
                 raise RuntimeError(f"nbgrader could not grade {folder}:\n{result['log']}\n{result.get('error', '')}")
         with api.gradebook as gb:

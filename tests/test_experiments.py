@@ -268,7 +268,10 @@ def test_a_stopped_sweep_stops_its_workers(tmp_path, stop):
     seeds, budget = 12, 3  # more work than the sweep can finish between its first saved step and the stop
     command = [sys.executable, "-m", "stair_lite", "sweep", "--scenes", "scene1", "--planners", "uniform,fixed",
                "--seeds", str(seeds), "--budget", str(budget), "--preset", "smoke", "--workers", "2", "--quiet", "--out", str(tmp_path)]
-    sweep = subprocess.Popen(command, cwd=Path(__file__).parents[1], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    # a terminal's Ctrl-C reaches a sweep whose SIGINT is live: a test session started in the background (where the
+    # shell ignores SIGINT, and children inherit that) must not pass its ignored SIGINT on to the sweep
+    sweep = subprocess.Popen(command, cwd=Path(__file__).parents[1], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                             start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.time() + 300
         while not list(tmp_path.glob("*/*/seed*/metrics.json")) and time.time() < deadline:

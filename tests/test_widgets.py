@@ -74,3 +74,13 @@ def test_static_fallback_has_a_panel_per_step():
     assert len(titles) == 5 and titles[0].startswith("step 1:")
     assert step_summary(records, 3).startswith("step 3/5")
     matplotlib.pyplot.close(fig)
+
+
+def test_grading_shows_the_explorer_as_its_static_figure(monkeypatch):
+    """Under STAIR_STATIC_WIDGETS=1 (set while grading) the explorer is the figure of every step, no live widget."""
+    records, snapshots = fake_mission(n=4)
+    assert isinstance(mission_explorer(records, snapshots=snapshots), MissionExplorer)
+    monkeypatch.setenv("STAIR_STATIC_WIDGETS", "1")
+    fig = mission_explorer(records, snapshots=snapshots)
+    assert isinstance(fig, matplotlib.figure.Figure) and len([ax for ax in fig.axes if ax.get_title()]) == 4
+    matplotlib.pyplot.close(fig)

@@ -63,6 +63,13 @@ class Simulator:
         self._camera_node = self._pyscene.add(camera, pose=np.eye(4))
         self._camera_intrinsics = intrinsics
 
+    def _aim(self, pose: np.ndarray, intrinsics: Intrinsics) -> pyrender.OffscreenRenderer:
+        """Put the camera, with these intrinsics, at an OpenCV camera-to-world pose; the renderer sized for it."""
+        if intrinsics != self._camera_intrinsics:
+            self._set_camera(intrinsics)
+        self._pyscene.set_pose(self._camera_node, pose @ OPENCV_TO_OPENGL)
+        return shared_renderer(intrinsics.width, intrinsics.height)
+
     def render(self, pose: np.ndarray, intrinsics: Intrinsics | None = None) -> Measurement:
         """One measurement (rgb, z-depth, labels) from an OpenCV camera-to-world pose, with the simulator's
         own intrinsics or, for this render only, the given ones."""
@@ -70,10 +77,7 @@ class Simulator:
         if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
             raise ValueError(f"pose must be a finite 4x4 camera-to-world matrix, got shape {pose.shape}")
         intrinsics = intrinsics or self.intrinsics
-        if intrinsics != self._camera_intrinsics:
-            self._set_camera(intrinsics)
-        self._pyscene.set_pose(self._camera_node, pose @ OPENCV_TO_OPENGL)
-        renderer = shared_renderer(intrinsics.width, intrinsics.height)
+        renderer = self._aim(pose, intrinsics)
         colour, _ = renderer.render(self._pyscene, flags=pyrender.RenderFlags.FLAT)
         seg, depth = renderer.render(
             self._pyscene, flags=pyrender.RenderFlags.SEG, seg_node_map=self._seg_ids
@@ -94,10 +98,7 @@ class Simulator:
     def objects_seen(self, elevation: float, azimuth: float) -> np.ndarray:
         """(H, W) index of the object each pixel of the view (elevation, azimuth) sees first, -1 where it sees
         the ground or nothing: one segmentation pass with an id per object instead of per class."""
-        if self.intrinsics != self._camera_intrinsics:
-            self._set_camera(self.intrinsics)
-        self._pyscene.set_pose(self._camera_node, view_to_pose(elevation, azimuth) @ OPENCV_TO_OPENGL)
-        renderer = shared_renderer(self.intrinsics.width, self.intrinsics.height)
+        renderer = self._aim(view_to_pose(elevation, azimuth), self.intrinsics)
         seg, _ = renderer.render(self._pyscene, flags=pyrender.RenderFlags.SEG, seg_node_map=self._object_ids)
         return seg[..., 0].astype(np.int64) - 1
 

@@ -45,6 +45,9 @@ class FieldConfig:
     # The occupancy head: one linear layer on (f_occ, sin/cos of gamma), as the reference code; the paper's text
     # states two hidden layers of 32 and the raw x in gamma, which invent volume under the ground (README)
     occ_hidden: tuple[int, ...] = ()
+    # the occupancy head reads gamma's sin/cos terms beside f_occ (the reference code). They fill volume no ray reached
+    # below the ground, and without them lite's surfaces do not become opaque (RESULTS.md, "The four measurements", 3)
+    occ_reads_position: bool = True
     rgb_hidden: tuple[int, ...] = (128, 128)
     occupancy_shift: float = -6.0  # o = 1 - exp(-softplus(f + shift)): the map starts almost empty
     bound: float = CUBE_BOUND  # the grids span the scene cube [-bound, bound]^3

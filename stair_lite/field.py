@@ -138,7 +138,7 @@ class SemanticField(nn.Module):
         pe_dim = 3 * (1 + 2 * cfg.pe_frequencies)
         generator_state = torch.random.get_rng_state()
         torch.manual_seed(seed)  # MLP initialisation is seeded, and the global state is restored after
-        self.occ_mlp = mlp(cfg.occ_channels + pe_dim - 3, cfg.occ_hidden, 1)
+        self.occ_mlp = mlp(cfg.occ_channels + (pe_dim - 3 if cfg.occ_reads_position else 0), cfg.occ_hidden, 1)
         if not cfg.occ_hidden:  # the reference code's linear head: every weight 0.1, bias 0, so the map starts empty
             nn.init.constant_(self.occ_mlp[0].weight, 0.1)
             nn.init.zeros_(self.occ_mlp[0].bias)
@@ -204,8 +204,10 @@ class SemanticField(nn.Module):
         """o = 1 - exp(-softplus(MLP_occ(f_occ, gamma) + shift)), a probability in [0, 1).
 
         The head reads gamma without the raw x (``pe[:, 3:]``, the sin/cos terms), as the reference code: a head
-        that reads x extrapolates occupancy into volume no ray has reached (README, "No phantom")."""
-        logit = mlp_on_parts(self.occ_mlp, f_occ, pe[:, 3:]).squeeze(1) + self.cfg.occupancy_shift
+        that reads x extrapolates occupancy into volume no ray has reached (README, "No phantom"). With
+        ``occ_reads_position`` off it reads f_occ alone."""
+        parts = (f_occ, pe[:, 3:]) if self.cfg.occ_reads_position else (f_occ,)
+        logit = mlp_on_parts(self.occ_mlp, *parts).squeeze(1) + self.cfg.occupancy_shift
         return -torch.expm1(-F.softplus(logit))
 
     def colour_from(self, f_rgb: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:

@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import pytest
 import torch
 import torch.nn.functional as F
@@ -100,6 +102,20 @@ def test_occupancy_head_reads_no_raw_position():
     torch.testing.assert_close(field.occupancy_from(f_occ, pe), field.occupancy_from(f_occ, moved))
     f_rgb = torch.randn(50, 6, generator=torch.Generator().manual_seed(2))
     assert not torch.allclose(field.colour_from(f_rgb, pe), field.colour_from(f_rgb, moved))
+
+
+def test_an_occupancy_head_without_position_reads_the_grid_features_only():
+    """``occ_reads_position=False``: the head is a function of f_occ alone (README, "No phantom": the position
+    terms of the default head fill volume no ray reached); the default head's sin/cos terms move it."""
+    lite = get_preset("lite").field
+    f_occ = torch.randn(50, 3, generator=torch.Generator().manual_seed(0))
+    pe = torch.randn(50, 21, generator=torch.Generator().manual_seed(1))
+    moved = pe + 1.0
+    grid_only = SemanticField(replace(lite, occ_reads_position=False), seed=0)
+    assert grid_only.occ_mlp[0].in_features == lite.occ_channels
+    torch.testing.assert_close(grid_only.occupancy_from(f_occ, pe), grid_only.occupancy_from(f_occ, moved))
+    default = SemanticField(lite, seed=0)
+    assert not torch.allclose(default.occupancy_from(f_occ, pe), default.occupancy_from(f_occ, moved))
 
 
 @pytest.mark.parametrize("hidden", [(), (8,), (16, 16)])

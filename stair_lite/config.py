@@ -48,6 +48,10 @@ class FieldConfig:
     # the occupancy head reads gamma's sin/cos terms beside f_occ (the reference code). They fill volume no ray reached
     # below the ground, and without them lite's surfaces do not become opaque (RESULTS.md, "The four measurements", 3)
     occ_reads_position: bool = True
+    # occupancy only where a measurement reached: a point's occupancy is the head's times the trilinear share of its
+    # cell's corners that a measured ray passed in front of its surface (or hit); a cell no ray reached is empty, as
+    # the map starts (README, "No phantom"). Off: the head everywhere, as the paper and the reference code
+    reached_only: bool = True
     rgb_hidden: tuple[int, ...] = (128, 128)
     occupancy_shift: float = -6.0  # o = 1 - exp(-softplus(f + shift)): the map starts almost empty
     bound: float = CUBE_BOUND  # the grids span the scene cube [-bound, bound]^3

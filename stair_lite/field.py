@@ -88,6 +88,10 @@ class Located:
     pe: torch.Tensor  # (N, 21) positional encoding
     grad_into_existing: bool = False  # backward adds the tables' gradients into their .grad (SemanticField)
 
+    def share_of(self, vertices: torch.Tensor) -> torch.Tensor:
+        """The trilinear share (N,) of the points' corners that are set in a boolean vertex mask (R^3,)."""
+        return (self.weights * vertices[self.index]).sum(dim=1)
+
     def subset(self, rows: torch.Tensor) -> "Located":
         """The same for the points selected by ``rows`` (a boolean mask or indices)."""
         return Located(self.index[rows], self.weights[rows], self.pe[rows], self.grad_into_existing)
@@ -144,6 +148,9 @@ class SemanticField(nn.Module):
             nn.init.zeros_(self.occ_mlp[0].bias)
         self.rgb_mlp = mlp(cfg.rgb_channels + pe_dim, cfg.rgb_hidden, 3)
         torch.random.set_rng_state(generator_state)
+        # the vertices whose cells a measured ray reached (Trainer.add_measurement marks them); with cfg.reached_only,
+        # occupancy is zero where none of a cell's corners is marked: a new field is empty everywhere
+        self.register_buffer("reached", torch.zeros(r**3, dtype=torch.bool))
         # True while training.accumulate_gradient runs: the grids' gradients are added into their existing .grad
         # (the sum autograd would form) instead of into a new full-size zero table per pass
         self.grid_grad_into_existing = False
@@ -187,8 +194,10 @@ class SemanticField(nn.Module):
         return Located(index, weights, positional_encoding(xn, self.cfg.pe_frequencies), self.grid_grad_into_existing)
 
     def occupancy_at(self, located: Located) -> torch.Tensor:
-        """o at located points (N,): V_occ read there, then the occupancy head."""
-        return self.occupancy_from(located.read(self.grid_occ), located.pe)
+        """o at located points (N,): V_occ read there, then the occupancy head; with ``cfg.reached_only`` times the
+        share of the points' cell corners a measured ray reached (zero in a cell no ray reached)."""
+        o = self.occupancy_from(located.read(self.grid_occ), located.pe)
+        return o * located.share_of(self.reached) if self.cfg.reached_only else o
 
     def appearance_at(self, located: Located) -> tuple[torch.Tensor, torch.Tensor]:
         """(f_rgb, f_sem) at located points: V_rgb and V_sem read there in one lookup."""
@@ -216,15 +225,16 @@ class SemanticField(nn.Module):
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
         """Occupancy (N,), colour (N, 3) and semantic logits (N, P) at world points x (N, 3)."""
-        f_occ, f_rgb, f_sem, pe = self.features(x)
-        return {"occ": self.occupancy_from(f_occ, pe), "rgb": self.colour_from(f_rgb, pe), "sem_logits": f_sem}
+        located = self.locate(x)
+        f_rgb, f_sem = self.appearance_at(located)
+        return {"occ": self.occupancy_at(located), "rgb": self.colour_from(f_rgb, located.pe), "sem_logits": f_sem}
 
     @torch.no_grad()
     def query(self, x: torch.Tensor, chunk: int = 262144) -> dict[str, torch.Tensor]:
         """Occupancy and semantic probabilities at many points, in chunks, without gradients."""
         occ, sem = [], []
         for part in torch.split(x, chunk):
-            f_occ, _, f_sem, pe = self.features(part)
-            occ.append(self.occupancy_from(f_occ, pe))
-            sem.append(torch.softmax(f_sem, dim=1))
+            located = self.locate(part)
+            occ.append(self.occupancy_at(located))
+            sem.append(torch.softmax(self.appearance_at(located)[1], dim=1))
         return {"occ": torch.cat(occ), "sem": torch.cat(sem)}

@@ -15,7 +15,7 @@ import torch
 from .classes import BACKGROUND, NUM_CLASSES
 from .config import RenderConfig
 from .geometry import Intrinsics, pixel_rays
-from .lattice import Lattice
+from .lattice import Lattice, flat_index
 
 
 def ray_box_intersection(origins: torch.Tensor, dirs: torch.Tensor, bound: float, near: float):
@@ -28,6 +28,29 @@ def ray_box_intersection(origins: torch.Tensor, dirs: torch.Tensor, bound: float
     t_near = torch.minimum(t0, t1).amax(dim=1).clamp(min=near)
     t_far = torch.maximum(t0, t1).amin(dim=1)
     return t_near, t_far, t_far > t_near
+
+
+def reached_vertices(lattice: Lattice, origins: torch.Tensor, dirs: torch.Tensor, depth: torch.Tensor, near: float,
+                     rays_per_chunk: int = 16384) -> torch.Tensor:
+    """Which lattice vertices (a boolean mask in flat order) belong to a cell the rays pass through in front of their
+    measured depth (the whole way through the cube for a ray that hit nothing, depth 0), their surface points'
+    cells included: where the measurements say something. Points every half vertex spacing along each ray mark
+    their cells; a vertex is reached when one of its 8 cells is."""
+    r = lattice.resolution
+    t_near, t_far, hit = ray_box_intersection(origins, dirs, lattice.bound, near)
+    t_end = torch.where(depth > 0, torch.minimum(t_far, depth), t_far)
+    rows = torch.nonzero(hit & (t_end >= t_near)).squeeze(1)
+    cells = torch.zeros((r - 1) ** 3, dtype=torch.bool, device=origins.device)
+    for chunk in torch.split(rows, rays_per_chunk):
+        length = t_end[chunk] - t_near[chunk]
+        n = int(torch.ceil(length.max() / (0.5 * lattice.spacing))) + 1
+        t = t_near[chunk, None] + length[:, None] * torch.linspace(0.0, 1.0, n, device=origins.device)
+        points = origins[chunk, None, :] + t[..., None] * dirs[chunk, None, :]
+        cell = lattice.vertex_units(points.reshape(-1, 3)).floor().clamp(0, r - 2).long()
+        cells[flat_index(cell[:, 0], cell[:, 1], cell[:, 2], r - 1)] = True
+    # a vertex is reached when any of the (up to) 8 cells around it is: a 2x2x2 max over the zero-padded cell grid
+    padded = torch.nn.functional.pad(cells.view(1, 1, r - 1, r - 1, r - 1).float(), (1, 1, 1, 1, 1, 1))
+    return (torch.nn.functional.max_pool3d(padded, kernel_size=2, stride=1) > 0).reshape(-1)
 
 
 def sample_along_rays(

@@ -15,7 +15,7 @@ import torch
 from .config import RenderConfig, TrainConfig
 from .geometry import pixel_rays
 from .measurement import Measurement, back_project
-from .rendering import SkipGrid, build_skip_grid, render_rays
+from .rendering import SkipGrid, build_skip_grid, reached_vertices, render_rays
 
 LOG_CLAMP = 1e-6  # probabilities are clamped before log(): cross entropy stays finite
 
@@ -200,6 +200,9 @@ class Trainer:
         self.buffer.add(m)
         points = torch.as_tensor(back_project(m)[0], dtype=torch.float32, device=self.field.device)
         self.measured_surface[self.field.lattice.nearest_index(points)] = True
+        rays = self._batch(self.buffer.newest_indices())
+        self.field.reached |= reached_vertices(self.field.lattice, rays["origins"], rays["dirs"], rays["depth"],
+                                               self.render_cfg.near)
 
     def _batch(self, index: np.ndarray) -> dict[str, torch.Tensor]:
         rays = self.buffer.rays(index)

@@ -82,6 +82,7 @@ def test_saturated_occupancy_stays_finite():
     field = SemanticField(FieldConfig(grid_resolution=8), seed=0)
     with torch.no_grad():
         field.occ_mlp[-1].bias.fill_(1e4)
+    field.reached.fill_(True)  # as if measurements had reached every cell (a new field is empty everywhere)
     occ = field(torch.zeros(10, 3))["occ"]
     assert torch.all(occ == 1.0) and torch.all(torch.isfinite(occ))
 

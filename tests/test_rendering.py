@@ -84,3 +84,25 @@ def test_compositing_the_active_samples_is_the_dense_sum_over_them():
     dense = (weights[..., None] * values * active[..., None]).sum(dim=1)
     torch.testing.assert_close(composite(values.view(-1, 4)[rows], rows, weights), dense)
     assert composite(values.view(-1, 4)[:0], rows[:0], weights).abs().sum() == 0  # no active sample: zero
+
+
+def test_a_ray_reaches_the_cells_in_front_of_its_depth_and_a_miss_crosses_the_cube():
+    """``reached_vertices`` against the cells counted by hand: a ray along +x through the middle of a cell row reaches
+    the vertices of the cells from the cube's face to the one holding its surface point, and no further; a ray
+    that hit nothing (depth 0) reaches the whole row."""
+    from stair_lite.lattice import Lattice, flat_index
+    from stair_lite.rendering import reached_vertices
+
+    lattice = Lattice(11, 1.0)  # vertices every 0.2 m, at x = -1, -0.8, ..., 1
+    origins = torch.tensor([[-3.0, 0.1, -0.1], [-3.0, 0.1, -0.1]])
+    dirs = torch.tensor([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    depth = torch.tensor([2.59, 0.0])  # the first hits a surface at x = -0.41, inside the cell [-0.6, -0.4]
+    def row(last_cell):
+        i = torch.arange(last_cell + 2)
+        j, k = torch.tensor([5, 6]), torch.tensor([4, 5])  # y = 0.1 lies between vertices 5 and 6, z = -0.1 between 4 and 5
+        ii, jj, kk = torch.meshgrid(i, j, k, indexing="ij")
+        return set(flat_index(ii.reshape(-1), jj.reshape(-1), kk.reshape(-1), 11).tolist())
+    def reached(rows):
+        return set(torch.nonzero(reached_vertices(lattice, origins[rows], dirs[rows], depth[rows], near=0.2)).squeeze(1).tolist())
+    assert reached([0]) == row(2)
+    assert reached([1]) == row(9)

@@ -133,3 +133,10 @@ def test_an_mlp_on_parts_is_the_mlp_on_their_concatenation(hidden):
     grad_split = torch.autograd.grad(split.sum(), [a, net[0].weight])
     for g_split, g_whole in zip(grad_split, grad_whole):
         torch.testing.assert_close(g_split, g_whole)
+
+
+def test_lite_next_is_lite_with_occupancy_only_where_measured():
+    """The preset the stored sweeps are re-run at differs from lite in that one switch (README, "No phantom")."""
+    lite, upcoming = get_preset("lite"), get_preset("lite_next")
+    assert upcoming.field.reached_only and not lite.field.reached_only
+    assert replace(upcoming, field=replace(upcoming.field, reached_only=False)) == lite

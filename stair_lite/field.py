@@ -129,7 +129,8 @@ class SemanticField(nn.Module):
     V_occ is the table ``grid_occ``; V_rgb and V_sem are channel slices of ``grid_app``, so one trilinear
     lookup serves both, and only where colour and classes are needed. The semantic head is the identity
     (softmax of the interpolated V_sem, no positional encoding), as the paper states; colour has no view
-    dependence.
+    dependence. With ``cfg.reached_only`` the occupancy is zero in the cells no measured ray reached (``reached``,
+    which the trainer marks; README, "No phantom").
     """
 
     def __init__(self, cfg: FieldConfig, seed: int = 0):

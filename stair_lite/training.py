@@ -200,9 +200,10 @@ class Trainer:
         self.buffer.add(m)
         points = torch.as_tensor(back_project(m)[0], dtype=torch.float32, device=self.field.device)
         self.measured_surface[self.field.lattice.nearest_index(points)] = True
-        rays = self._batch(self.buffer.newest_indices())
-        self.field.reached |= reached_vertices(self.field.lattice, rays["origins"], rays["dirs"], rays["depth"],
-                                               self.render_cfg.near)
+        if self.field.cfg.reached_only:  # the cells this measurement's rays reached (FieldConfig.reached_only)
+            rays = self._batch(self.buffer.newest_indices())
+            self.field.reached |= reached_vertices(self.field.lattice, rays["origins"], rays["dirs"], rays["depth"],
+                                                   self.render_cfg.near)
 
     def _batch(self, index: np.ndarray) -> dict[str, torch.Tensor]:
         rays = self.buffer.rays(index)

@@ -150,8 +150,9 @@ class SemanticField(nn.Module):
         self.rgb_mlp = mlp(cfg.rgb_channels + pe_dim, cfg.rgb_hidden, 3)
         torch.random.set_rng_state(generator_state)
         # the vertices whose cells a measured ray reached (Trainer.add_measurement marks them); with cfg.reached_only,
-        # occupancy is zero where none of a cell's corners is marked: a new field is empty everywhere
-        self.register_buffer("reached", torch.zeros(r**3, dtype=torch.bool))
+        # occupancy is zero where none of a cell's corners is marked: a new field is empty everywhere. Derived from the
+        # measurements, which a resumed mission adds again, so checkpoints do not store it
+        self.register_buffer("reached", torch.zeros(r**3, dtype=torch.bool), persistent=False)
         # True while training.accumulate_gradient runs: the grids' gradients are added into their existing .grad
         # (the sum autograd would form) instead of into a new full-size zero table per pass
         self.grid_grad_into_existing = False

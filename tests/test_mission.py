@@ -1,5 +1,7 @@
 import json
 import os
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -10,8 +12,8 @@ from stair_lite.mission import FolderInUseError, Mission, MissionConfig, Results
 TINY = get_preset("smoke")
 
 
-def run(tmp_path, name="m", budget=3, planner="stair", on_step=None, **kw):
-    mission = Mission(MissionConfig(planner=planner, budget=budget), out=tmp_path / name, preset=TINY, **kw)
+def run(tmp_path, name="m", budget=3, planner="stair", on_step=None, preset=TINY, **kw):
+    mission = Mission(MissionConfig(planner=planner, budget=budget), out=tmp_path / name, preset=preset, **kw)
     return mission.run(on_step=on_step)
 
 
@@ -31,18 +33,20 @@ def test_same_seed_same_mission(tmp_path):
     assert stored["config"]["planner"] == "stair" and len(stored["steps"]) == 3
 
 
-def test_interrupted_mission_keeps_its_steps_and_resumes_exactly(tmp_path):
-    full = run(tmp_path, "full", budget=3)
+@pytest.mark.parametrize("preset", [TINY, replace(TINY, field=replace(TINY.field, reached_only=True))],
+                         ids=["smoke", "reached_only"])  # the reached cells are re-marked from the measurements
+def test_interrupted_mission_keeps_its_steps_and_resumes_exactly(tmp_path, preset):
+    full = run(tmp_path, "full", budget=3, preset=preset)
 
     def stop_after_two(record):
         if record["step"] == 2:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        run(tmp_path, "cut", budget=3, on_step=stop_after_two)
+        run(tmp_path, "cut", budget=3, on_step=stop_after_two, preset=preset)
     saved = json.loads((tmp_path / "cut" / "metrics.json").read_text())
     assert [r["step"] for r in saved["steps"]] == [1, 2]
-    resumed = run(tmp_path, "cut", budget=3, resume=True)
+    resumed = run(tmp_path, "cut", budget=3, resume=True, preset=preset)
     assert strip_times(resumed) == strip_times(full)
 
 

@@ -113,6 +113,10 @@ class EvalConfig:
     mesh_points: int = 1_000_000
     f1_threshold: float = 0.01  # 1 cm
     more_f1_thresholds: tuple[float, ...] = (0.02, 0.05)  # F1 also at 2 and 5 cm: it resolves coarse maps
+    # samples per ray of the field's evaluation renders (None: the training renderer's n_samples). With occupancy only
+    # where a ray reached, a surface is a shell about one lattice cell thick; samples further apart than a cell step
+    # over it and the render comes out too transparent (README, "No phantom")
+    render_samples: int | None = None
 
 
 @dataclass(frozen=True)
@@ -195,9 +199,10 @@ SMOKE = Preset(
     explicit=ExplicitConfig(resolution=32, n_candidates=12, candidate_scale=0.03),
 )
 
-# lite with the field change that removes the phantom (occupancy only where a measurement reached): the stored
-# sweeps are being re-run at it (data/results/*_next; README, "No phantom"); once they are complete it becomes lite
-LITE_NEXT = replace(LITE, field=replace(LITE.field, reached_only=True))
+# lite with the field change that removes the phantom (occupancy only where a measurement reached) and evaluation
+# renders with the paper's 200 samples per ray, which its one-cell surface shells need: the stored sweeps are re-run
+# at it (data/results/*_next; README, "No phantom"); once they are complete it becomes lite
+LITE_NEXT = replace(LITE, field=replace(LITE.field, reached_only=True), eval=replace(LITE.eval, render_samples=200))
 
 PRESETS = {"paper": PAPER, "lite": LITE, "lite_next": LITE_NEXT, "smoke": SMOKE}
 

@@ -10,10 +10,11 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Iterable
+from dataclasses import replace
 
 import numpy as np
 
-from .config import Preset
+from .config import EvalConfig, Preset
 from .evaluation import extract_mesh
 from .field import SemanticField
 from .geometry import Intrinsics
@@ -75,15 +76,15 @@ class ImplicitMap(ReconstructionMap):
 
     kind = IMPLICIT
 
-    def __init__(self, trainer: Trainer, mesh_resolution: int):
+    def __init__(self, trainer: Trainer, eval_cfg: EvalConfig):
         self.trainer = trainer
-        self.mesh_resolution = mesh_resolution
+        self.eval_cfg = eval_cfg  # the target mesh's lattice and the evaluation renders' samples per ray
         self._target_skip = None  # (key, SkipGrid): built once per state of the field (its training iteration)
 
     @classmethod
     def from_preset(cls, preset: Preset, seed: int = 0, device="cpu") -> "ImplicitMap":
         field = SemanticField(preset.field, seed=seed).to(device)
-        return cls(Trainer(field, preset.train, preset.render, seed=seed), preset.eval.mesh_resolution)
+        return cls(Trainer(field, preset.train, preset.render, seed=seed), preset.eval)
 
     @property
     def field(self) -> SemanticField:
@@ -107,12 +108,14 @@ class ImplicitMap(ReconstructionMap):
         """Both renders skip the lattice cells that hold no target (``target_skip_grid``); the second also
         the cells below ``z_min``. Both come from one evaluation of the field per sample."""
         skip = self.target_skip_grid(targets)
-        return render_target_views_and_cut(self.field, intrinsics, poses, self.trainer.render_cfg, targets, skip, z_min)
+        samples = self.eval_cfg.render_samples
+        render_cfg = self.trainer.render_cfg if samples is None else replace(self.trainer.render_cfg, n_samples=samples)
+        return render_target_views_and_cut(self.field, intrinsics, poses, render_cfg, targets, skip, z_min)
 
     def target_mesh(self, targets):
         """Marching cubes of the target-masked occupancy; the field is evaluated only in the lattice cells that
         may hold a target (``target_skip_grid``, threshold 1e-3, far below the 0.5 level)."""
-        return extract_mesh(self.field, self.mesh_resolution, targets=targets, skip=self.target_skip_grid(targets))
+        return extract_mesh(self.field, self.eval_cfg.mesh_resolution, targets=targets, skip=self.target_skip_grid(targets))
 
     def occupied_share_below(self, z_max):
         points = self.field.lattice.points(self.field.device)

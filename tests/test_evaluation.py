@@ -102,6 +102,32 @@ def test_skipping_empty_space_matches_the_exact_render():
     np.testing.assert_array_equal(implicit.target_mesh(scene.targets).vertices, exact_mesh.vertices)
 
 
+def test_evaluation_renders_take_their_samples_per_ray_from_the_eval_config():
+    """``EvalConfig.render_samples`` sets the evaluation renders' samples per ray (None: the training renderer's), and
+    it changes what they show."""
+    from dataclasses import replace
+
+    from stair_lite.evaluation import GROUND_CUT_Z
+    from stair_lite.geometry import TOP_VIEW, Intrinsics, view_to_pose
+    from stair_lite.rendering import build_skip_grid, render_target_views_and_cut
+
+    preset, scene = get_preset("smoke"), load_scene("scene1")
+    sim, K = Simulator(scene), Intrinsics.from_fov().scaled(0.1)
+    poses = [view_to_pose(0.6, azimuth) for azimuth in (0.5, 2.5)]
+    renders = {}
+    for samples in (None, 96):
+        implicit = ImplicitMap.from_preset(replace(preset, eval=replace(preset.eval, render_samples=samples)), seed=0)
+        implicit.integrate(sim.render_view(*TOP_VIEW))
+        renders[samples] = list(implicit.target_only_renders(K, poses, scene.targets, GROUND_CUT_Z))
+    field = implicit.field  # trained the same way as the first map (same seed, same view)
+    direct = render_target_views_and_cut(field, K, poses, replace(preset.render, n_samples=96), scene.targets,
+                                         build_skip_grid(field, scene.targets), GROUND_CUT_Z)
+    for mine, expected in zip(renders[96], direct):
+        for a, b in zip(mine, expected):
+            np.testing.assert_allclose(a, b, atol=1e-6)
+    assert preset.render.n_samples != 96 and any(not np.allclose(a[0], b[0]) for a, b in zip(renders[None], renders[96]))
+
+
 def small_eval_preset():
     from dataclasses import replace
 

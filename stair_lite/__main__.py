@@ -20,6 +20,7 @@ from pathlib import Path
 import stair_lite  # noqa: F401  (sets the offscreen platform before pyrender loads)
 
 from .classes import CLASS_NAMES
+from .config import PRESETS
 from .maps import MAP_KINDS
 from .planners import PLANNERS, REPLAY
 from .segmenter import LABEL_NOISE
@@ -333,7 +334,7 @@ def main(argv=None):
     p.add_argument("--scene", default="scene1")
     p.add_argument("--planner", default="stair", help=", ".join((*PLANNERS, REPLAY)))
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--preset", default="lite", choices=["lite", "lite_next", "paper", "smoke"])
+    p.add_argument("--preset", default="lite", choices=sorted(PRESETS))
     p.add_argument("--targets", default=None, help="comma-separated class names (default: the scene's)")
     p.add_argument("--budget", type=int, default=None, help="number of measurements, the top view included "
                    "(default: the preset's, 10)")
@@ -354,7 +355,7 @@ def main(argv=None):
     p.add_argument("--planners", default="all", help="'all', 'base' or comma-separated variants (e.g. stair,ste,stair_eps0.5)")
     p.add_argument("--seeds", type=int, default=5, help="number of seeds per cell")
     p.add_argument("--first-seed", type=int, default=0)
-    p.add_argument("--preset", default="lite", choices=["lite", "lite_next", "paper", "smoke"])
+    p.add_argument("--preset", default="lite", choices=sorted(PRESETS))
     p.add_argument("--budget", type=int, default=None, help="measurements per mission (default: the preset's, 10)")
     p.add_argument("--workers", type=int, default=1, help="cells in parallel: N > 1 starts a local Dask cluster of N "
                    "single-threaded worker processes")
@@ -373,7 +374,7 @@ def main(argv=None):
     p.add_argument("--after", type=int, default=3, help="views of a seeded STAIR mission before the candidate view")
     p.add_argument("--candidates", type=int, default=16, help="spread candidate views (a Fibonacci set)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--preset", default="lite", choices=["lite", "lite_next", "paper", "smoke"])
+    p.add_argument("--preset", default="lite", choices=sorted(PRESETS))
     p.add_argument("--out", default="runs/headroom")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_headroom)

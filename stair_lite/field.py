@@ -195,10 +195,14 @@ class SemanticField(nn.Module):
         index, weights = corner_indices_and_weights(xn, self.cfg.grid_resolution)
         return Located(index, weights, positional_encoding(xn, self.cfg.pe_frequencies), self.grid_grad_into_existing)
 
+    def head_occupancy_at(self, located: Located) -> torch.Tensor:
+        """The occupancy head's o at located points (N,): V_occ read there, then the head, wherever a ray reached or not."""
+        return self.occupancy_from(located.read(self.grid_occ), located.pe)
+
     def occupancy_at(self, located: Located) -> torch.Tensor:
-        """o at located points (N,): V_occ read there, then the occupancy head; with ``cfg.reached_only`` times the
-        share of the points' cell corners a measured ray reached (zero in a cell no ray reached)."""
-        o = self.occupancy_from(located.read(self.grid_occ), located.pe)
+        """o at located points (N,): the head's (``head_occupancy_at``); with ``cfg.reached_only`` times the share of
+        the points' cell corners a measured ray reached (zero in a cell no ray reached)."""
+        o = self.head_occupancy_at(located)
         return o * located.share_of(self.reached) if self.cfg.reached_only else o
 
     def appearance_at(self, located: Located) -> tuple[torch.Tensor, torch.Tensor]:

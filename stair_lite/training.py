@@ -201,9 +201,10 @@ class Trainer:
         points = torch.as_tensor(back_project(m)[0], dtype=torch.float32, device=self.field.device)
         self.measured_surface[self.field.lattice.nearest_index(points)] = True
         if self.field.cfg.reached_only:  # the cells this measurement's rays reached (FieldConfig.reached_only)
-            rays = self._batch(self.buffer.newest_indices())
-            self.field.reached |= reached_vertices(self.field.lattice, rays["origins"], rays["dirs"], rays["depth"],
-                                                   self.render_cfg.near)
+            origins, dirs = (torch.as_tensor(a, dtype=torch.float32, device=self.field.device)
+                             for a in pixel_rays(m.intrinsics, m.pose))
+            depth = torch.as_tensor(m.depth.reshape(-1), dtype=torch.float32, device=self.field.device)
+            self.field.reached |= reached_vertices(self.field.lattice, origins, dirs, depth, self.render_cfg.near)
 
     def _batch(self, index: np.ndarray) -> dict[str, torch.Tensor]:
         rays = self.buffer.rays(index)

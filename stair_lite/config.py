@@ -50,8 +50,8 @@ class FieldConfig:
     occ_reads_position: bool = True
     # occupancy only where a measurement reached: a point's occupancy is the head's times the trilinear share of its
     # cell's corners that a measured ray passed in front of its surface (or hit); a cell no ray reached is empty
-    # (README, "No phantom"). Off: the head everywhere, as the paper and the reference code; on in ``lite_next``
-    reached_only: bool = False
+    # (README, "No phantom"). Off: the head everywhere, as the paper and the reference code
+    reached_only: bool = True
     rgb_hidden: tuple[int, ...] = (128, 128)
     occupancy_shift: float = -6.0  # o = 1 - exp(-softplus(f + shift)): the map starts almost empty
     bound: float = CUBE_BOUND  # the grids span the scene cube [-bound, bound]^3
@@ -113,10 +113,10 @@ class EvalConfig:
     mesh_points: int = 1_000_000
     f1_threshold: float = 0.01  # 1 cm
     more_f1_thresholds: tuple[float, ...] = (0.02, 0.05)  # F1 also at 2 and 5 cm: it resolves coarse maps
-    # samples per ray of the field's evaluation renders (None: the training renderer's n_samples). With occupancy only
-    # where a ray reached, a surface is a shell about one lattice cell thick; samples further apart than a cell step
-    # over it and the render comes out too transparent (README, "No phantom")
-    render_samples: int | None = None
+    # samples per ray of the field's evaluation renders (the paper's 200). With occupancy only where a ray reached, a
+    # surface is a shell about one lattice cell thick; samples further apart than a cell step over it and the render
+    # comes out too transparent (README, "No phantom")
+    render_samples: int = 200
 
 
 @dataclass(frozen=True)
@@ -194,17 +194,12 @@ SMOKE = Preset(
     field=FieldConfig(grid_resolution=24, rgb_hidden=(16,)),
     render=RenderConfig(n_samples=24, n_surface_samples=8, colour_min_occupancy=0.0),
     train=TrainConfig(rays_new=128, rays_replay=128, iterations_per_view=5),
-    eval=EvalConfig(n_test_views=3, image_scale=0.1, mesh_resolution=32, mesh_points=2000),
+    eval=EvalConfig(n_test_views=3, image_scale=0.1, mesh_resolution=32, mesh_points=2000, render_samples=24),
     plan=PlanConfig(n_uniform=12, top_k=2, n_resample=2, candidate_scale=0.03, candidate_samples=24),
     explicit=ExplicitConfig(resolution=32, n_candidates=12, candidate_scale=0.03),
 )
 
-# lite with the field change that removes the phantom (occupancy only where a measurement reached) and evaluation
-# renders with the paper's 200 samples per ray, which its one-cell surface shells need: the stored sweeps are re-run
-# at it (data/results/*_next; README, "No phantom"); once they are complete it becomes lite
-LITE_NEXT = replace(LITE, field=replace(LITE.field, reached_only=True), eval=replace(LITE.eval, render_samples=200))
-
-PRESETS = {"paper": PAPER, "lite": LITE, "lite_next": LITE_NEXT, "smoke": SMOKE}
+PRESETS = {"paper": PAPER, "lite": LITE, "smoke": SMOKE}
 
 
 def get_preset(name: str = "lite", **overrides) -> Preset:

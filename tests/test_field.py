@@ -1,5 +1,3 @@
-from dataclasses import replace
-
 import pytest
 import torch
 import torch.nn.functional as F
@@ -134,11 +132,3 @@ def test_an_mlp_on_parts_is_the_mlp_on_their_concatenation(hidden):
     for g_split, g_whole in zip(grad_split, grad_whole):
         torch.testing.assert_close(g_split, g_whole)
 
-
-def test_lite_next_is_lite_with_occupancy_only_where_measured():
-    """The preset the stored sweeps are re-run at differs from lite in two settings: occupancy only where a measurement
-    reached, and evaluation renders with 200 samples per ray (README, "No phantom")."""
-    lite, upcoming = get_preset("lite"), get_preset("lite_next")
-    assert upcoming.field.reached_only and not lite.field.reached_only
-    assert upcoming.eval.render_samples == 200 and lite.eval.render_samples is None
-    assert replace(upcoming, field=replace(upcoming.field, reached_only=False), eval=lite.eval) == lite

@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import torch
@@ -184,7 +186,7 @@ def test_a_measurement_marks_the_cells_its_rays_reached_and_none_behind_the_surf
     """``add_measurement`` marks the vertices of every cell a ray passed in front of its surface: no vertex more than
     one cell below the ground's top (z = 0) is marked after the top view, every vertex of a surface point's cell is,
     and a cell no ray reached has zero occupancy, while the head decides in the cells rays reached."""
-    field = SemanticField(FieldConfig(**{**SMALL_FIELD.__dict__, "reached_only": True}), seed=0)
+    field = SemanticField(replace(SMALL_FIELD, reached_only=True), seed=0)
     trainer = Trainer(field, SMALL_TRAIN, SMALL_RENDER, seed=0)
     points = field.lattice.points()
     assert not field.reached.any() and float(field.query(points)["occ"].max()) == 0.0  # a new field knows nothing: empty
@@ -206,7 +208,7 @@ def test_a_measurement_marks_the_cells_its_rays_reached_and_none_behind_the_surf
     occ = field.query(points)["occ"]
     assert occ[~field.reached].max() < 1e-4 and torch.all(occ[points[:, 2] < -2 * spacing] == 0)  # (float rounding)
     assert torch.allclose(occ[field.reached & (points[:, 2] > 0.5)], torch.ones(1))
-    plain = SemanticField(SMALL_FIELD, seed=0)
+    plain = SemanticField(replace(SMALL_FIELD, reached_only=False), seed=0)
     with torch.no_grad():
         plain.occ_mlp[-1].bias.fill_(50.0)
     assert torch.allclose(plain.query(points)["occ"], torch.ones(1))  # off: the head everywhere, as the paper

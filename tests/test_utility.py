@@ -81,6 +81,7 @@ def test_snapshot_scores_agree_with_the_exact_field():
         generator = torch.Generator().manual_seed(0)
         for grid in (field.grid_occ, field.grid_app):
             grid.normal_(0, 2.0, generator=generator)
+        field.reached.fill_(True)  # as if measurements had reached every cell (FieldConfig.reached_only)
     k = Intrinsics.from_fov(12, 12)
     views = fibonacci_hemisphere(12)
     exact = score_views(field, views, (1, 2), k, 48)

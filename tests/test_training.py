@@ -36,7 +36,7 @@ def test_training_lowers_the_loss_and_fits_the_view(sim):
     m = measurement(sim, 1.0, 0.5)
     before = render_image(field, K, m.pose, SMALL_RENDER)
     trainer.add_measurement(m)
-    history = trainer.update(160)  # the linear occupancy head makes this coarse grid opaque in about 150
+    history = trainer.update(240)  # the linear occupancy head makes this coarse grid opaque: after 160, 13 cm depth error
     first, last = np.mean([h.total for h in history[:10]]), np.mean([h.total for h in history[-10:]])
     assert last < 0.5 * first
     after = render_image(field, K, m.pose, SMALL_RENDER)

@@ -113,10 +113,10 @@ class EvalConfig:
     mesh_points: int = 1_000_000
     f1_threshold: float = 0.01  # 1 cm
     more_f1_thresholds: tuple[float, ...] = (0.02, 0.05)  # F1 also at 2 and 5 cm: it resolves coarse maps
-    # samples per ray of the field's evaluation renders (None: the training renderer's n_samples). With occupancy only
-    # where a ray reached, a surface is a shell about one lattice cell thick; samples further apart than a cell step
-    # over it and the render comes out too transparent (README, "No phantom")
-    render_samples: int | None = None
+    # samples per ray of the field's evaluation renders (the paper's 200). With occupancy only where a ray reached, a
+    # surface is a shell about one lattice cell thick; samples further apart than a cell step over it and the render
+    # comes out too transparent (README, "No phantom")
+    render_samples: int = 200
 
 
 @dataclass(frozen=True)
@@ -184,7 +184,8 @@ LITE = Preset(
     field=FieldConfig(grid_resolution=64, rgb_hidden=(32, 32)),
     render=RenderConfig(n_samples=48, n_surface_samples=16, chunk_rays=4096, colour_min_occupancy=0.0),
     train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=80, skip_refresh=20, lr_occupancy_head=0.05),
-    eval=EvalConfig(n_test_views=20, image_scale=0.25, mesh_resolution=128, mesh_points=100_000),
+    # 48 samples per evaluation ray, as lite's renderer: its field fills the volume behind a surface (lite_next: 200)
+    eval=EvalConfig(n_test_views=20, image_scale=0.25, mesh_resolution=128, mesh_points=100_000, render_samples=48),
     plan=PlanConfig(candidate_scale=0.1, candidate_samples=64),
 )
 
@@ -194,7 +195,7 @@ SMOKE = Preset(
     field=FieldConfig(grid_resolution=24, rgb_hidden=(16,)),
     render=RenderConfig(n_samples=24, n_surface_samples=8, colour_min_occupancy=0.0),
     train=TrainConfig(rays_new=128, rays_replay=128, iterations_per_view=5),
-    eval=EvalConfig(n_test_views=3, image_scale=0.1, mesh_resolution=32, mesh_points=2000),
+    eval=EvalConfig(n_test_views=3, image_scale=0.1, mesh_resolution=32, mesh_points=2000, render_samples=24),
     plan=PlanConfig(n_uniform=12, top_k=2, n_resample=2, candidate_scale=0.03, candidate_samples=24),
     explicit=ExplicitConfig(resolution=32, n_candidates=12, candidate_scale=0.03),
 )

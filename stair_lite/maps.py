@@ -108,8 +108,7 @@ class ImplicitMap(ReconstructionMap):
         """Both renders skip the lattice cells that hold no target (``target_skip_grid``); the second also
         the cells below ``z_min``. Both come from one evaluation of the field per sample."""
         skip = self.target_skip_grid(targets)
-        samples = self.eval_cfg.render_samples
-        render_cfg = self.trainer.render_cfg if samples is None else replace(self.trainer.render_cfg, n_samples=samples)
+        render_cfg = replace(self.trainer.render_cfg, n_samples=self.eval_cfg.render_samples)
         return render_target_views_and_cut(self.field, intrinsics, poses, render_cfg, targets, skip, z_min)
 
     def target_mesh(self, targets):

@@ -140,5 +140,5 @@ def test_lite_next_is_lite_with_occupancy_only_where_measured():
     reached, and evaluation renders with 200 samples per ray (README, "No phantom")."""
     lite, upcoming = get_preset("lite"), get_preset("lite_next")
     assert upcoming.field.reached_only and not lite.field.reached_only
-    assert upcoming.eval.render_samples == 200 and lite.eval.render_samples is None
+    assert upcoming.eval.render_samples == 200 and lite.eval.render_samples == lite.render.n_samples == 48
     assert replace(upcoming, field=replace(upcoming.field, reached_only=False), eval=lite.eval) == lite

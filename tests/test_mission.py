@@ -33,8 +33,8 @@ def test_same_seed_same_mission(tmp_path):
     assert stored["config"]["planner"] == "stair" and len(stored["steps"]) == 3
 
 
-@pytest.mark.parametrize("preset", [TINY, replace(TINY, field=replace(TINY.field, reached_only=True))],
-                         ids=["smoke", "reached_only"])  # the reached cells are re-marked from the measurements
+@pytest.mark.parametrize("preset", [replace(TINY, field=replace(TINY.field, reached_only=rule)) for rule in (True, False)],
+                         ids=["reached_only", "head_everywhere"])  # the reached cells are re-marked from the measurements
 def test_interrupted_mission_keeps_its_steps_and_resumes_exactly(tmp_path, preset):
     full = run(tmp_path, "full", budget=3, preset=preset)
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import torch
 
 from .classes import NUM_CLASSES
 from .geometry import Intrinsics, pixel_rays
@@ -46,6 +47,12 @@ class Measurement:
             raise ValueError(
                 f"measurement labels must lie in the class range 0..{NUM_CLASSES - 1}, found [{labels.min()}, {labels.max()}]"
             )
+
+
+def measured_rays(m: Measurement, device="cpu") -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Every pixel's ray as float32 tensors: origins (H*W, 3), directions (H*W, 3) and measured z-depth (H*W,)."""
+    origins, directions = pixel_rays(m.intrinsics, m.pose)
+    return tuple(torch.as_tensor(a, dtype=torch.float32, device=device) for a in (origins, directions, m.depth.reshape(-1)))
 
 
 def back_project(m: Measurement) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

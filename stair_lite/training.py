@@ -14,7 +14,7 @@ import torch
 
 from .config import RenderConfig, TrainConfig
 from .geometry import pixel_rays
-from .measurement import Measurement, back_project
+from .measurement import Measurement, back_project, measured_rays
 from .rendering import SkipGrid, build_skip_grid, reached_vertices, render_rays
 
 LOG_CLAMP = 1e-6  # probabilities are clamped before log(): cross entropy stays finite
@@ -201,10 +201,8 @@ class Trainer:
         points = torch.as_tensor(back_project(m)[0], dtype=torch.float32, device=self.field.device)
         self.measured_surface[self.field.lattice.nearest_index(points)] = True
         if self.field.cfg.reached_only:  # the cells this measurement's rays reached (FieldConfig.reached_only)
-            origins, dirs = (torch.as_tensor(a, dtype=torch.float32, device=self.field.device)
-                             for a in pixel_rays(m.intrinsics, m.pose))
-            depth = torch.as_tensor(m.depth.reshape(-1), dtype=torch.float32, device=self.field.device)
-            self.field.reached |= reached_vertices(self.field.lattice, origins, dirs, depth, self.render_cfg.near)
+            self.field.reached |= reached_vertices(self.field.lattice, *measured_rays(m, self.field.device),
+                                                   self.render_cfg.near)
 
     def _batch(self, index: np.ndarray) -> dict[str, torch.Tensor]:
         rays = self.buffer.rays(index)

@@ -1,14 +1,14 @@
 """The phantom under the ground, and the quality around it, on a mission-like fixed sequence of views.
 
 Run: .venv/bin/python benchmarks/bench_phantom.py [--scenes scene1,scene4] [--seeds 0,1] [--behind-surface none]
-     [--occ-hidden 32,32]
+     [--occ-hidden 32,32] [--head-everywhere]
 The map sees the top view, then 9 Fibonacci views (as a mission starts from the top view, which is what
 drives the phantom), and is evaluated after views 1, 3, 6 and 10: the phantom (the share of the lattice
 below z = -0.05 with occupancy above 0.5), both target-only PSNRs, mesh F1 at 1 and 5 cm and the chamfer
-distance. The options switch off the two changes that remove the phantom (README, "No phantom"): training
-rays that end 3 cm behind their measured surface (``--behind-surface none``: at the cube's far side) and the
-linear occupancy head (``--occ-hidden 32,32``: the paper's two hidden layers). One torch thread: the numbers
-are deterministic.
+distance. The options switch off the three changes that remove the phantom (README, "No phantom"): training
+rays that end 3 cm behind their measured surface (``--behind-surface none``: at the cube's far side), the
+linear occupancy head (``--occ-hidden 32,32``: the paper's two hidden layers) and occupancy only where a
+measurement reached (``--head-everywhere``). One torch thread: the numbers are deterministic.
 """
 import argparse
 from dataclasses import replace
@@ -32,6 +32,8 @@ def main():
     parser.add_argument("--seeds", default="0,1")
     parser.add_argument("--behind-surface", default=None, help="metres, or 'none' (default: the preset's)")
     parser.add_argument("--occ-hidden", default=None, help="hidden widths of the occupancy head, e.g. 32,32 (default: the preset's)")
+    parser.add_argument("--head-everywhere", action="store_true",
+                        help="the occupancy head's value everywhere, not only where a measurement reached")
     args = parser.parse_args()
     torch.set_num_threads(1)
     preset = get_preset("lite")
@@ -40,6 +42,8 @@ def main():
         preset = replace(preset, render=replace(preset.render, behind_surface=value))
     if args.occ_hidden is not None:
         preset = replace(preset, field=replace(preset.field, occ_hidden=tuple(int(w) for w in args.occ_hidden.split(","))))
+    if args.head_everywhere:
+        preset = replace(preset, field=replace(preset.field, reached_only=False))
     views = [TOP_VIEW] + [tuple(v) for v in fibonacci_hemisphere(9, azimuth_offset=0.3)]
     for scene_name in args.scenes.split(","):
         scene = load_scene(scene_name)

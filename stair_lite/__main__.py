@@ -277,32 +277,52 @@ def _cmd_headroom(args):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    import numpy as np
-
-    from .headroom import METRICS, UTILITIES, measure_headroom
+    from .experiments import PAPER_SCENES
+    from .headroom import Headroom, measure_headroom, print_headroom
     from .mission import make_output_folder
     from .plotting import plot_headroom
 
-    make_output_folder(args.out)
-    result = measure_headroom(args.scene, args.after, args.candidates, seed=args.seed, preset=args.preset,
-                              log=lambda line: None if args.quiet else print(line, flush=True))
-    command = (f"python -m stair_lite headroom --scene {args.scene} --after {args.after} --candidates {args.candidates} "
-               f"--seed {args.seed} --preset {args.preset} --out {args.out}")
-    stem = result.save(args.out, command)
-    axes = plot_headroom(result)
-    axes[0].figure.tight_layout()
-    axes[0].figure.savefig(stem.with_suffix(".png"), dpi=90)
-    plt.close("all")
-    print(f"{'metric':>10} {'spread of gains (min / median / max)':>38}" + "".join(f" {u + ' rho':>16}" for u in UTILITIES)
-          + "".join(f" {u + ' pick':>18}" for u in UTILITIES))
-    for m in METRICS:
-        g = result.gains(m)
-        print(f"{m:>10} {g.min():12.4f} / {np.median(g):8.4f} / {g.max():8.4f}"
-              + "".join(f" {result.correlations[u][m]:+16.2f}" if result.correlations[u][m] is not None else f" {'-':>16}"
-                        for u in UTILITIES)
-              + "".join(f" {result.gains(m, u)[0]:+9.4f} ({result.pick_percentile(u, m):4.0%})" for u in UTILITIES))
-    print(f"(pick: its gain, and the share of spread candidates it beats) wrote {stem}.csv, .json, .png")
+    out = make_output_folder(args.out)
+    scenes = PAPER_SCENES if args.scene == "all" else tuple(args.scene.split(","))
+    afters = _whole_numbers("--after", args.after)
+    utilities = tuple(args.utilities.split(","))
+    for scene in scenes:
+        for after in afters:
+            stem = out / f"{Path(scene).stem}_after{after}"
+            if len(scenes) * len(afters) > 1 and stem.with_suffix(".json").exists():
+                print(f"{stem}.json exists: kept (delete it to measure again)")
+                continue
+            result = measure_headroom(scene, after, args.candidates, seed=args.seed, preset=args.preset,
+                                      utilities=utilities, streams=args.streams,
+                                      log=lambda line: None if args.quiet else print(line, flush=True))
+            command = (f"python -m stair_lite headroom --scene {scene} --after {after} --candidates {args.candidates} "
+                       f"--seed {args.seed} --preset {args.preset} --streams {args.streams} --utilities {args.utilities} "
+                       f"--out {args.out}")
+            stem = result.save(out, command)
+            axes = plot_headroom(result)
+            axes[0].figure.tight_layout()
+            axes[0].figure.savefig(stem.with_suffix(".png"), dpi=90)
+            plt.close("all")
+            print_headroom(Headroom.load(stem))
+            print(f"wrote {stem}.csv, .json, .png")
     return 0
+
+
+def _cmd_league(args):
+    from .headroom import Headroom, league_markdown
+
+    stems = sorted(p.with_suffix("") for p in Path(args.results).glob("*.json"))
+    if not stems:
+        raise ValueError(f"no headroom tables (*.json) in {args.results}")
+    print(league_markdown([Headroom.load(s) for s in stems]))
+    return 0
+
+
+def _whole_numbers(option: str, text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(v) for v in text.split(","))
+    except ValueError:
+        raise ValueError(f"{option} takes whole numbers separated by commas, got {text!r}") from None
 
 
 def main(argv=None):
@@ -370,14 +390,22 @@ def main(argv=None):
     p.add_argument("--results", default="runs/sweep")
     p.set_defaults(func=_cmd_report)
     p = sub.add_parser("headroom", help="does a utility predict what a view will teach? (realised gains of spread views)")
-    p.add_argument("--scene", default="scene1")
-    p.add_argument("--after", type=int, default=3, help="views of a seeded STAIR mission before the candidate view")
+    p.add_argument("--scene", default="scene1", help="a scene, comma-separated scenes, or 'all' (scene1-4)")
+    p.add_argument("--after", default="3", help="views of a seeded STAIR mission before the candidate view (or a "
+                   "comma-separated list)")
     p.add_argument("--candidates", type=int, default=16, help="spread candidate views (a Fibonacci set)")
+    p.add_argument("--streams", type=int, default=1, help="training streams each spread view is realised with (> 1: "
+                   "the noise ceiling)")
+    p.add_argument("--utilities", default="stair,exploration,max_distance", help="the planners whose utility and pick "
+                   "are measured")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--preset", default="lite", choices=sorted(PRESETS))
     p.add_argument("--out", default="runs/headroom")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_headroom)
+    p = sub.add_parser("league", help="the league of utilities over a folder of headroom tables (Markdown)")
+    p.add_argument("--results", default="data/results/headroom_lite")
+    p.set_defaults(func=_cmd_league)
     p = sub.add_parser("claims", help="the paper's three claims checked against stored results (Markdown)")
     p.add_argument("--results", default="data/results/comparison_lite")
     p.add_argument("--ablation", default=None, help="an epsilon-ablation sweep folder (claim iii)")

@@ -21,21 +21,22 @@ import numpy as np
 from scipy import stats
 
 from .claims import LOWER_IS_BETTER
-from .geometry import Intrinsics, fibonacci_hemisphere, view_to_pose
+from .geometry import fibonacci_hemisphere, view_to_pose
 from .maps import ImplicitMap
 from .mission import Mission, MissionConfig, make_output_folder
-from .planners import far_enough, make_planner, mean_squared_distance
-from .utility import FieldSnapshot, UtilityOptions, score_views
+from .planners import far_enough, make_planner
 
 METRICS = ("psnr", "psnr_clean", "f1", "f1_5cm", "chamfer")
-UTILITIES = ("stair", "exploration", "max_distance")  # the planners whose utility and pick are measured
+UTILITIES = ("stair", "exploration", "max_distance")  # the planners whose utility and pick are measured by default
 
 
 @dataclass
 class Headroom:
     """What ``measure_headroom`` found: the metrics before the new view, one row per realised view (``kind``:
-    "spread" for the spread candidates, else the planner whose pick it is) and, per utility and metric, the
-    Spearman rank correlation of the utility with the realised gain over the spread candidates."""
+    "spread" for the spread candidates, else the planner whose pick it is; ``stream``: the training stream it was
+    realised with, 0 the mission's own) and, per utility and metric, the Spearman rank correlation of the utility with
+    the realised gain over the spread candidates (stream 0). With several streams, ``ceiling`` holds per metric how
+    well the gains of one stream can be ranked by the others' mean gains: what any utility could reach."""
 
     scene: str
     after: int
@@ -44,14 +45,23 @@ class Headroom:
     before: dict
     rows: list[dict]
     correlations: dict
+    utilities: tuple[str, ...] = UTILITIES
+    streams: int = 1
+    ceiling: dict | None = None
 
-    def gains(self, metric: str, kind: str = "spread") -> np.ndarray:
-        return np.array([r[f"gain_{metric}"] for r in self.rows if r["kind"] == kind])
+    def gains(self, metric: str, kind: str = "spread", stream: int = 0) -> np.ndarray:
+        return np.array([r[f"gain_{metric}"] for r in self.rows if r["kind"] == kind and int(r.get("stream", 0)) == stream])
 
     def pick_percentile(self, planner: str, metric: str) -> float:
         """The share of spread candidates whose gain is below that of ``planner``'s pick (1: better than all)."""
         (pick,) = self.gains(metric, planner)
         return float((self.gains(metric) < pick).mean())
+
+    def best_share(self, planner: str, metric: str) -> float:
+        """``planner``'s pick's gain as a share of the best spread candidate's gain (1: as good as the best)."""
+        (pick,) = self.gains(metric, planner)
+        best = self.gains(metric).max()
+        return float(pick / best) if best > 0 else float("nan")
 
     def save(self, folder: str | Path, command: str = "") -> Path:
         """``<scene>_after<K>.csv`` (the rows) and ``.json`` (everything else) in ``folder``; returns the stem."""
@@ -62,7 +72,7 @@ class Headroom:
             writer.writeheader()
             writer.writerows(self.rows)
         summary = {k: v for k, v in asdict(self).items() if k != "rows"}
-        summary["pick_percentiles"] = {p: {m: self.pick_percentile(p, m) for m in METRICS} for p in UTILITIES}
+        summary["pick_percentiles"] = {p: {m: self.pick_percentile(p, m) for m in METRICS} for p in self.utilities}
         summary["command"] = command
         stem.with_suffix(".json").write_text(json.dumps(summary, indent=1))
         return stem
@@ -73,7 +83,9 @@ class Headroom:
         summary = json.loads(stem.with_suffix(".json").read_text())
         with stem.with_suffix(".csv").open() as f:
             rows = [{k: v if k == "kind" else float(v) for k, v in r.items()} for r in csv.DictReader(f)]
-        return cls(**{k: summary[k] for k in ("scene", "after", "seed", "preset", "before", "correlations")}, rows=rows)
+        optional = {k: summary[k] for k in ("streams", "ceiling") if k in summary}
+        return cls(**{k: summary[k] for k in ("scene", "after", "seed", "preset", "before", "correlations")}, rows=rows,
+                   utilities=tuple(summary.get("utilities", UTILITIES)), **optional)
 
 
 def gain(metric: str, before: float, after: float) -> float:
@@ -81,52 +93,94 @@ def gain(metric: str, before: float, after: float) -> float:
     return before - after if metric in LOWER_IS_BETTER else after - before
 
 
-def measure_headroom(scene: str, after: int, n_candidates: int, seed: int = 0, preset: str = "lite",
-                     log=print) -> Headroom:
-    """Run a seeded STAIR mission for ``after`` views, then realise ``n_candidates`` spread views and the
-    picks of the planners in ``UTILITIES`` as the next view, each on a copy of the map (see the module)."""
-    if after < 1 or n_candidates < 2:
-        raise ValueError(f"need at least 1 view before and 2 candidates, got after={after}, candidates={n_candidates}")
-    mission = Mission(MissionConfig(scene=scene, planner="stair", seed=seed, preset=preset, budget=after))
-    mission.run()
-    visited, targets = np.array(mission.visited), mission.targets
-    before = {m: mission.records[-1][m] for m in METRICS}
-    field = mission.map.planning_source
-    state = mission.map.state_dict()
-    measurements = [mission.simulator.render(view_to_pose(*v)) for v in visited]
+class MapAfter:
+    """A seeded STAIR mission after ``after`` views, and copies of its map that each add one more view: the same
+    training state, and the same random stream (``stream`` 0) or another one (``stream`` k > 0)."""
 
-    spread = fibonacci_hemisphere(n_candidates, azimuth_offset=np.random.default_rng(seed).uniform(0, 2 * np.pi))
-    spread = spread[far_enough(spread, visited)]
-    picks = {"stair": mission.planner.next_view(field, visited, targets).view}  # the mission's own next view
-    for name in UTILITIES[1:]:
-        picks[name] = make_planner(name, mission.preset, seed=seed + 1).next_view(field, visited, targets).view
-    views = np.concatenate([spread, np.array([picks[p] for p in UTILITIES])])
-    kinds = ["spread"] * len(spread) + list(UTILITIES)
+    def __init__(self, scene: str, after: int, seed: int = 0, preset: str = "lite"):
+        self.mission = Mission(MissionConfig(scene=scene, planner="stair", seed=seed, preset=preset, budget=after))
+        self.mission.run()
+        self.seed = seed
+        self.visited, self.targets = np.array(self.mission.visited), self.mission.targets
+        self.before = {m: self.mission.records[-1][m] for m in METRICS}
+        self.state = self.mission.map.state_dict()
+        self.measurements = [self.mission.simulator.render(view_to_pose(*v)) for v in self.visited]
 
-    cfg = mission.preset.plan
-    scores = score_views(FieldSnapshot(field), views, targets, Intrinsics.from_fov().scaled(cfg.candidate_scale),
-                         cfg.candidate_samples, UtilityOptions(epsilon=cfg.epsilon))
-    utilities = {"stair": scores.utility, "exploration": scores.exploration,
-                 "max_distance": mean_squared_distance(views, visited)}
+    @property
+    def field(self):
+        return self.mission.map.planning_source
 
-    rows = []
-    for i, (view, kind) in enumerate(zip(views, kinds)):
-        copy_of_map = ImplicitMap.from_preset(mission.preset, seed=seed)
-        for m in measurements:
+    def source_for(self, planner):
+        """What ``planner`` reads of this mission's maps: the field, or nothing (a map-free planner)."""
+        if planner.reads not in (None, self.mission.map.kind):
+            raise ValueError(f"planner {planner.name!r} reads the {planner.reads} map, which a STAIR mission does not build; "
+                             "the headroom instrument measures planners of the field or of no map")
+        return self.field if planner.reads else None
+
+    def planner(self, name: str):
+        """The mission's own STAIR planner (its next view is the mission's), or a fresh one of another name."""
+        return self.mission.planner if name == "stair" else make_planner(name, self.mission.preset, seed=self.seed + 1)
+
+    def realise(self, view: np.ndarray, stream: int = 0) -> dict:
+        """The metrics after adding ``view`` to a copy of the map and training it (training stream ``stream``)."""
+        copy_of_map = ImplicitMap.from_preset(self.mission.preset, seed=self.seed)
+        for m in self.measurements:
             copy_of_map.add_measurement(m)
-        copy_of_map.load_state_dict(copy.deepcopy(state))  # the same training state for every candidate
-        copy_of_map.integrate(mission.simulator.render(view_to_pose(*view)))
-        result = mission.evaluator.evaluate(copy_of_map)
-        rows.append({"kind": kind, "elevation_deg": float(np.degrees(view[0])), "azimuth_deg": float(np.degrees(view[1])),
-                     **{f"u_{u}": float(utilities[u][i]) for u in UTILITIES},
+        copy_of_map.load_state_dict(copy.deepcopy(self.state))
+        if stream:
+            copy_of_map.trainer.reseed(np.random.SeedSequence([self.seed, stream]).generate_state(1)[0])
+        copy_of_map.integrate(self.mission.simulator.render(view_to_pose(*view)))
+        return self.mission.evaluator.evaluate(copy_of_map)
+
+
+def measure_headroom(scene: str, after: int, n_candidates: int, seed: int = 0, preset: str = "lite",
+                     utilities: tuple[str, ...] = UTILITIES, streams: int = 1, log=print) -> Headroom:
+    """Run a seeded STAIR mission for ``after`` views, then realise ``n_candidates`` spread views (each with
+    ``streams`` training streams) and the picks of the planners in ``utilities`` as the next view, each on a copy of
+    the map (see the module)."""
+    if after < 1 or n_candidates < 2 or streams < 1:
+        raise ValueError(f"need at least 1 view before, 2 candidates and 1 stream, got after={after}, "
+                         f"candidates={n_candidates}, streams={streams}")
+    state = MapAfter(scene, after, seed, preset)
+    spread = fibonacci_hemisphere(n_candidates, azimuth_offset=np.random.default_rng(seed).uniform(0, 2 * np.pi))
+    spread = spread[far_enough(spread, state.visited)]
+    planners = {name: state.planner(name) for name in utilities}
+    sources = {name: state.source_for(p) for name, p in planners.items()}
+    picks = {name: p.next_view(sources[name], state.visited, state.targets).view for name, p in planners.items()}
+    views = np.concatenate([spread, np.array([picks[p] for p in utilities])])
+    scores = {name: p.utility(sources[name], views, state.visited, state.targets) for name, p in planners.items()}
+    jobs = [(i, "spread", s) for s in range(streams) for i in range(len(spread))]
+    jobs += [(len(spread) + j, name, 0) for j, name in enumerate(utilities)]
+    rows = []
+    for n, (i, kind, stream) in enumerate(jobs):
+        result = state.realise(views[i], stream)
+        rows.append({"kind": kind, "stream": stream,
+                     "elevation_deg": float(np.degrees(views[i][0])), "azimuth_deg": float(np.degrees(views[i][1])),
+                     **{f"u_{u}": float(scores[u][i]) if scores[u] is not None else float("nan") for u in utilities},
                      **{m: float(result[m]) for m in METRICS},
-                     **{f"gain_{m}": gain(m, before[m], float(result[m])) for m in METRICS}})
-        log(f"{scene} after {after}: view {i + 1}/{len(views)} ({kind}) F1 gain {rows[-1]['gain_f1']:+.3f}, "
+                     **{f"gain_{m}": gain(m, state.before[m], float(result[m])) for m in METRICS}})
+        log(f"{scene} after {after}: view {n + 1}/{len(jobs)} ({kind}, stream {stream}) F1 gain {rows[-1]['gain_f1']:+.3f}, "
             f"clean PSNR gain {rows[-1]['gain_psnr_clean']:+.2f} dB")
-    spread_rows = [r for r in rows if r["kind"] == "spread"]
-    correlations = {u: {m: rank_correlation([r[f"u_{u}"] for r in spread_rows], [r[f"gain_{m}"] for r in spread_rows])
-                        for m in METRICS} for u in UTILITIES}
-    return Headroom(scene, after, seed, preset, before, rows, correlations)
+    result = Headroom(scene, after, seed, preset, state.before, rows, {}, tuple(utilities), streams)
+    spread_rows = [r for r in rows if r["kind"] == "spread" and r["stream"] == 0]
+    result.correlations = {u: {m: rank_correlation([r[f"u_{u}"] for r in spread_rows], [r[f"gain_{m}"] for r in spread_rows])
+                               for m in METRICS} for u in utilities}
+    if streams > 1:
+        result.ceiling = {m: noise_ceiling(np.array([result.gains(m, stream=s) for s in range(streams)])) for m in METRICS}
+    return result
+
+
+def noise_ceiling(gains: np.ndarray) -> dict:
+    """How well could any utility rank views whose realised gains ``gains`` (streams x views) vary with the training
+    stream? Per stream, an oracle that knows the other streams' mean gain of each view: its Spearman correlation with
+    this stream's gains and the share of views its pick beats in this stream; both averaged over the streams."""
+    rhos, picks = [], []
+    for s in range(len(gains)):
+        oracle = np.delete(gains, s, axis=0).mean(axis=0)
+        rhos.append(rank_correlation(oracle, gains[s]))
+        picks.append(float((gains[s] < gains[s][np.argmax(oracle)]).mean()))
+    rhos = [r for r in rhos if r is not None]
+    return {"spearman": float(np.mean(rhos)) if rhos else None, "pick_percentile": float(np.mean(picks))}
 
 
 def rank_correlation(a, b) -> float | None:
@@ -134,3 +188,59 @@ def rank_correlation(a, b) -> float | None:
     if np.ptp(a) == 0 or np.ptp(b) == 0:
         return None
     return float(stats.spearmanr(a, b).statistic)
+
+
+def print_headroom(result: Headroom, out=print) -> None:
+    """A table per metric: the spread of the gains, and per utility its rank correlation and its pick's gain."""
+    utilities = result.utilities
+    out(f"{'metric':>10} {'spread of gains (min / median / max)':>38}" + "".join(f" {u[:12] + ' rho':>16}" for u in utilities)
+        + "".join(f" {u[:12] + ' pick':>18}" for u in utilities))
+    for m in METRICS:
+        g = result.gains(m)
+        out(f"{m:>10} {g.min():12.4f} / {np.median(g):8.4f} / {g.max():8.4f}"
+            + "".join(f" {result.correlations[u][m]:+16.2f}" if result.correlations[u][m] is not None else f" {'-':>16}"
+                      for u in utilities)
+            + "".join(f" {result.gains(m, u)[0]:+9.4f} ({result.pick_percentile(u, m):4.0%})" for u in utilities))
+    if result.ceiling:
+        out("noise ceiling (" + f"{result.streams} streams): " + ", ".join(
+            f"{m} rho {c['spearman']:+.2f} pick {c['pick_percentile']:.0%}" for m, c in result.ceiling.items()
+            if c["spearman"] is not None))
+    out("(pick: its gain, and the share of spread candidates it beats)")
+
+
+def league(tables: list[Headroom]) -> list[dict]:
+    """Per utility and metric over headroom tables: the mean pick percentile, the mean Spearman correlation with the
+    realised gain and the mean share of the best candidate's gain that the pick realises; and the noise ceiling
+    (utility "ceiling", from the tables realised with several streams)."""
+    rows = []
+    utilities = list(dict.fromkeys(u for t in tables for u in t.utilities))
+    for u in utilities:
+        mine = [t for t in tables if u in t.utilities]
+        for m in METRICS:
+            rhos = [t.correlations[u][m] for t in mine if t.correlations[u][m] is not None]
+            shares = [t.best_share(u, m) for t in mine]
+            rows.append({"utility": u, "metric": m, "tables": len(mine),
+                         "pick_percentile": float(np.mean([t.pick_percentile(u, m) for t in mine])),
+                         "spearman": float(np.mean(rhos)) if rhos else float("nan"),
+                         "best_share": float(np.nanmean(shares)) if np.isfinite(shares).any() else float("nan")})
+    noisy = [t for t in tables if t.ceiling]
+    for m in METRICS if noisy else ():
+        rhos = [t.ceiling[m]["spearman"] for t in noisy if t.ceiling[m]["spearman"] is not None]
+        rows.append({"utility": "ceiling", "metric": m, "tables": len(noisy),
+                     "pick_percentile": float(np.mean([t.ceiling[m]["pick_percentile"] for t in noisy])),
+                     "spearman": float(np.mean(rhos)) if rhos else float("nan"), "best_share": float("nan")})
+    return rows
+
+
+def league_markdown(tables: list[Headroom]) -> str:
+    """The league as a Markdown table, a row per utility and metric."""
+    lines = [f"{len(tables)} headroom tables ({', '.join(sorted(f'{t.scene}@{t.after}' for t in tables))}); pick: the share "
+             "of spread candidates the utility's own pick beats; rho: Spearman with the realised gain over the spread "
+             "candidates; share: the pick's gain over the best candidate's; ceiling: an oracle that knows the mean gain "
+             "of the other training streams", "",
+             "| utility | metric | tables | pick | rho | share |", "|---|---|---|---|---|---|"]
+    for r in league(tables):
+        share = "-" if not np.isfinite(r["best_share"]) else f"{r['best_share']:+.2f}"
+        lines.append(f"| {r['utility']} | {r['metric']} | {r['tables']} | {r['pick_percentile']:.0%} | {r['spearman']:+.2f} "
+                     f"| {share} |")
+    return "\n".join(lines)

@@ -82,6 +82,11 @@ class Planner:
     def next_view(self, source, visited: np.ndarray, targets: tuple[int, ...]) -> Decision:
         raise NotImplementedError
 
+    def utility(self, source, views: np.ndarray, visited: np.ndarray, targets: tuple[int, ...]) -> np.ndarray | None:
+        """The score the planner ranks ``views`` by (higher: chosen first), or None for a planner that ranks nothing
+        (the headroom instrument measures how well this score predicts what a view teaches)."""
+        return None
+
     def state_dict(self) -> dict:
         return {"rng": self.rng.bit_generator.state}
 
@@ -107,6 +112,10 @@ class UtilityPlanner(Planner):
 
     def _value(self, scores: Scores) -> np.ndarray:
         return scores.exploration if self.exploration_only else scores.utility
+
+    def utility(self, field, views, visited, targets) -> np.ndarray:
+        source = field if self.exact else FieldSnapshot(field)
+        return self._value(score_views(source, views, targets, self.intrinsics, self.cfg.candidate_samples, self.options))
 
     def next_view(self, field, visited, targets) -> Decision:
         cfg = self.cfg
@@ -158,6 +167,9 @@ class MaxViewDistancePlanner(Planner):
     name = "max_distance"
     n_candidates = 200
 
+    def utility(self, field, views, visited, targets) -> np.ndarray:
+        return mean_squared_distance(views, visited)
+
     def next_view(self, field, visited, targets) -> Decision:
         candidates = random_hemisphere(self.n_candidates, self.rng)
         distance = mean_squared_distance(candidates, visited)
@@ -188,6 +200,9 @@ class STEPlanner(Planner):
     def __init__(self, cfg: PlanConfig, rng: np.random.Generator, n_candidates: int):
         super().__init__(cfg, rng)
         self.n_candidates = n_candidates
+
+    def utility(self, explicit_map, views, visited, targets) -> np.ndarray:
+        return explicit_map.roi_scores(views, targets)
 
     def next_view(self, explicit_map, visited, targets) -> Decision:
         candidates = random_hemisphere(self.n_candidates, self.rng)

@@ -195,6 +195,11 @@ class Trainer:
         self.buffer.use_counts = state["use_counts"]
         self.iterations = state["iterations"]
 
+    def reseed(self, seed: int) -> None:
+        """Another random stream for the rays and samples from here on (the headroom instrument's noise ceiling)."""
+        self.rng = np.random.default_rng(seed)
+        self.generator.manual_seed(int(seed))
+
     def add_measurement(self, m: Measurement) -> None:
         """Store a new measurement; the next ``update`` trains on it."""
         self.buffer.add(m)

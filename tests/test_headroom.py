@@ -38,5 +38,5 @@ def test_rows_gains_and_correlations(headroom, tmp_path):
 
 
 def test_bad_arguments_are_named():
-    with pytest.raises(ValueError, match="at least 1 view before and 2 candidates"):
+    with pytest.raises(ValueError, match="at least 1 view before, 2 candidates"):
         measure_headroom("scene1", after=0, n_candidates=5, preset="smoke")

@@ -14,27 +14,25 @@ import time
 
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
-from stair_lite.evaluation import Evaluator
-from stair_lite.geometry import fibonacci_hemisphere, view_to_pose
-from stair_lite.maps import ImplicitMap
-from stair_lite.scenes import load_scene
-from stair_lite.simulator import Simulator
+from stair_lite.geometry import fibonacci_hemisphere
+from stair_lite.maps import IMPLICIT
+from stair_lite.mission import World, build_map
 
 QUALITY = ("psnr", "psnr_clean", "f1", "f1_5cm", "phantom")
 
 
-def run_seed(preset, sim, evaluator, targets, args, seed, updates, evals):
+def run_seed(preset, world, args, seed, updates, evals):
     """Train one field (seeded) on the fixed views; returns the evaluation after the last view."""
-    implicit = ImplicitMap.from_preset(preset, seed=seed)
-    for i, (el, az) in enumerate(fibonacci_hemisphere(args.views, azimuth_offset=0.3)):
-        implicit.add_measurement(sim.render(view_to_pose(el, az)))
+    implicit = build_map(IMPLICIT, preset, seed=seed)
+    for i, view in enumerate(fibonacci_hemisphere(args.views, azimuth_offset=0.3)):
+        implicit.add_measurement(world.measure(view, i + 1))
         start = time.perf_counter()
         implicit.update()
         updates.append((i, time.perf_counter() - start))
         line = f"seed {seed} view {i + 1:2d}: update {updates[-1][1]:.2f} s"
         if i >= args.views - args.evals:
             start = time.perf_counter()
-            result = evaluator.evaluate(implicit)
+            result = world.evaluator.evaluate(implicit)
             evals.append(time.perf_counter() - start)
             line += (f" | evaluation {evals[-1]:.2f} s: PSNR {result['psnr']:.2f} dB (clean {result['psnr_clean']:.2f}), "
                      f"F1 {result['f1']:.3f} (5 cm {result['f1_5cm']:.3f}), phantom {result['phantom']:.3f}")
@@ -51,12 +49,10 @@ def main():
     parser.add_argument("--seeds", type=int, default=3, help="field seeds 0..n-1: the run-to-run spread of the quality")
     args = parser.parse_args()
     preset = get_preset(args.preset)
-    scene = load_scene(args.scene)
-    sim = Simulator(scene)
-    evaluator = Evaluator(sim, scene.targets, preset)
+    world = World.build(args.scene, preset)
     updates, evals, finals = [], [], []
     for seed in range(args.seeds):
-        finals.append(run_seed(preset, sim, evaluator, scene.targets, args, seed, updates, evals))
+        finals.append(run_seed(preset, world, args, seed, updates, evals))
     peak_gb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
     later = [t for i, t in updates if i > 0]
     print(f"preset {preset.name}: {preset.train.iterations_per_view} iterations/view, "

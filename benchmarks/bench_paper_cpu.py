@@ -21,12 +21,10 @@ import numpy as np
 
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
-from stair_lite.geometry import TOP_VIEW, Intrinsics, fibonacci_hemisphere, view_to_pose
-from stair_lite.maps import ImplicitMap
-from stair_lite.mission import Mission, MissionConfig
+from stair_lite.geometry import TOP_VIEW, Intrinsics, fibonacci_hemisphere
+from stair_lite.maps import IMPLICIT
+from stair_lite.mission import Mission, MissionConfig, World, build_map
 from stair_lite.planners import make_planner
-from stair_lite.scenes import load_scene
-from stair_lite.simulator import Simulator
 from stair_lite.utility import FieldSnapshot, score_views
 
 
@@ -42,13 +40,13 @@ def main():
     preset = get_preset("paper")
     if args.mission:
         return whole_mission(preset, args.scene, args.budget, args.iterations)
-    scene = load_scene(args.scene)
-    sim = Simulator(scene)
-    implicit = ImplicitMap.from_preset(preset, seed=0)
+    world = World.build(args.scene, preset)
+    scene = world.scene
+    implicit = build_map(IMPLICIT, preset, seed=0)
     trainer, tc = implicit.trainer, preset.train
     visited = [np.array(TOP_VIEW)] + list(fibonacci_hemisphere(2, azimuth_offset=0.3))
-    for view in visited:  # three views, so that replay rays exist
-        implicit.add_measurement(sim.render(view_to_pose(*view)))
+    for step, view in enumerate(visited, start=1):  # three views, so that replay rays exist
+        implicit.add_measurement(world.measure(view, step))
         trainer.update(1)
     label = (f"one training iteration ({tc.rays_new} + {tc.rays_replay} rays, {preset.field.grid_resolution}^3 grids, "
              f"{preset.render.n_samples} samples per ray; time of {tc.skip_refresh} iterations, one skip-grid build "

@@ -17,11 +17,9 @@ import torch
 
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
-from stair_lite.evaluation import Evaluator
-from stair_lite.geometry import TOP_VIEW, fibonacci_hemisphere, view_to_pose
-from stair_lite.maps import ImplicitMap
-from stair_lite.scenes import load_scene
-from stair_lite.simulator import Simulator
+from stair_lite.geometry import TOP_VIEW, fibonacci_hemisphere
+from stair_lite.maps import IMPLICIT
+from stair_lite.mission import World, build_map
 
 REPORT_AFTER = (1, 3, 6, 10)
 
@@ -46,15 +44,13 @@ def main():
         preset = replace(preset, field=replace(preset.field, reached_only=False))
     views = [TOP_VIEW] + [tuple(v) for v in fibonacci_hemisphere(9, azimuth_offset=0.3)]
     for scene_name in args.scenes.split(","):
-        scene = load_scene(scene_name)
-        sim = Simulator(scene)
-        evaluator = Evaluator(sim, scene.targets, preset)
+        world = World.build(scene_name, preset)
         for seed in map(int, args.seeds.split(",")):
-            implicit = ImplicitMap.from_preset(preset, seed=seed)
+            implicit = build_map(IMPLICIT, preset, seed=seed)
             for i, view in enumerate(views, start=1):
-                implicit.integrate(sim.render(view_to_pose(*view)))
+                implicit.integrate(world.measure(view, i))
                 if i in REPORT_AFTER:
-                    r = evaluator.evaluate(implicit)
+                    r = world.evaluator.evaluate(implicit)
                     print(f"{scene_name} seed {seed} after view {i:2d}: phantom {r['phantom']:.3f} | PSNR {r['psnr']:.2f} dB, "
                           f"clean {r['psnr_clean']:.2f} dB | F1 {r['f1']:.3f}, at 5 cm {r['f1_5cm']:.3f} | "
                           f"chamfer {100 * r['chamfer']:.2f} cm", flush=True)

@@ -14,13 +14,10 @@ import numpy as np
 
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
-from stair_lite.explicit import ExplicitMap
-from stair_lite.geometry import TOP_VIEW, Intrinsics, fibonacci_hemisphere, view_to_pose
-from stair_lite.maps import ImplicitMap
-from stair_lite.mission import Mission, MissionConfig
+from stair_lite.geometry import TOP_VIEW, Intrinsics, fibonacci_hemisphere
+from stair_lite.maps import EXPLICIT, IMPLICIT
+from stair_lite.mission import Mission, MissionConfig, World, build_map
 from stair_lite.planners import make_planner
-from stair_lite.scenes import load_scene
-from stair_lite.simulator import Simulator
 from stair_lite.utility import FieldSnapshot, UtilityOptions, score_views
 
 
@@ -36,13 +33,13 @@ def main():
                              "schedule makes the paper preset affordable on a CPU)")
     args = parser.parse_args()
     preset = get_preset(args.preset)
-    scene = load_scene(args.scene)
-    sim = Simulator(scene)
-    implicit = ImplicitMap.from_preset(preset, seed=0)
+    world = World.build(args.scene, preset)
+    scene = world.scene
+    implicit = build_map(IMPLICIT, preset, seed=0)
     field = implicit.field
     visited = [np.array(TOP_VIEW)] + list(fibonacci_hemisphere(3, azimuth_offset=0.3))
-    for view in visited:
-        implicit.add_measurement(sim.render(view_to_pose(*view)))
+    for step, view in enumerate(visited, start=1):
+        implicit.add_measurement(world.measure(view, step))
         implicit.trainer.update(args.iterations)
     planner = make_planner("stair", preset, seed=0)
     times = []
@@ -74,10 +71,11 @@ def main():
           f"{np.corrcoef(np.argsort(np.argsort(fast)), np.argsort(np.argsort(exact)))[0, 1]:.3f} (last set)")
 
     # The explicit STE baseline: its map integrates the same views, then one ROI planning step.
-    emap = ExplicitMap(preset.explicit)
+    emap = build_map(EXPLICIT, preset)
+    measurements = [world.measure(view, step) for step, view in enumerate(visited, start=1)]
     start = time.perf_counter()
-    for view in visited:
-        emap.integrate(sim.render(view_to_pose(*view)))
+    for m in measurements:
+        emap.integrate(m)
     t_integrate = (time.perf_counter() - start) / len(visited)
     ste = make_planner("ste", preset, seed=0)
     ste_times = []

@@ -20,7 +20,7 @@ from pathlib import Path
 import stair_lite  # noqa: F401  (sets the offscreen platform before pyrender loads)
 
 from .classes import CLASS_NAMES
-from .config import PRESETS
+from .config import PRESETS, SEED_LIMIT
 from .maps import MAP_KINDS
 from .planners import PLANNERS, REPLAY
 from .segmenter import LABEL_NOISE
@@ -45,7 +45,7 @@ def _cmd_render(args):
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from .mission import make_output_folder
+    from .results_folder import make_output_folder
     from .plotting import show_measurement
     from .scenes import load_scene
     from .simulator import Simulator
@@ -68,51 +68,42 @@ def _cmd_fit(args):
     import numpy as np
 
     from .config import check_device, get_preset
-    from .evaluation import Evaluator
-    from .geometry import fibonacci_hemisphere, view_to_pose
-    from .maps import ImplicitMap
-    from .mission import make_output_folder
-    from .scenes import load_scene
-    from .segmenter import NoisySegmenter
-    from .simulator import Simulator
+    from .geometry import fibonacci_hemisphere
+    from .maps import IMPLICIT
+    from .mission import World, build_map
+    from .results_folder import make_output_folder
 
     out = make_output_folder(args.out) if args.out else None  # before training: a bad folder costs nothing
-    preset = get_preset(args.preset)
-    segmenter = NoisySegmenter(args.label_noise, seed=args.seed)
     for name in ("iterations", "rays", "views"):
         if getattr(args, name) is not None and getattr(args, name) < 1:
             raise ValueError(f"--{name} must be at least 1, got {getattr(args, name)}")
+    preset = get_preset(args.preset)
     if args.iterations is not None:
         preset = replace(preset, train=replace(preset.train, iterations_per_view=args.iterations))
     if args.rays is not None:
         preset = replace(preset, train=replace(preset.train, rays_new=args.rays, rays_replay=args.rays))
     if args.eval_preset is not None:
         preset = replace(preset, eval=get_preset(args.eval_preset).eval)
-    if args.views < 1:
-        raise SystemExit(f"--views must be at least 1, got {args.views}")
-    scene = load_scene(args.scene)
-    targets = scene.check_targets(args.targets.split(",") if args.targets else scene.targets)
-    sim = Simulator(scene)
-    implicit = ImplicitMap.from_preset(preset, seed=args.seed, device=check_device(args.device))
-    evaluator = Evaluator(sim, targets, preset, seed=args.seed)
+    world = World.build(args.scene, preset, args.seed, tuple(args.targets.split(",")) if args.targets else None,
+                        args.label_noise)
+    implicit = build_map(IMPLICIT, preset, seed=args.seed, device=check_device(args.device))
     views = fibonacci_hemisphere(args.views, azimuth_offset=0.3)
     print(f"preset {preset.name}: grid {preset.field.grid_resolution}^3, {preset.train.iterations_per_view} "
-          f"iterations/view, {preset.train.rays_new}+{preset.train.rays_replay} rays; scene {scene.name}, targets {targets}, "
-          f"label noise {args.label_noise}")
+          f"iterations/view, {preset.train.rays_new}+{preset.train.rays_replay} rays; scene {world.scene.name}, targets "
+          f"{world.targets}, label noise {args.label_noise}")
     start = time.perf_counter()
-    for i, (el, az) in enumerate(views):
-        history = implicit.integrate(segmenter(sim.render(view_to_pose(el, az)), step=i + 1))
-        print(f"view {i + 1:2d}/{len(views)} (el {np.degrees(el):4.1f}, az {np.degrees(az):5.1f}): "
+    for i, view in enumerate(views):
+        history = implicit.integrate(world.measure(view, step=i + 1))
+        print(f"view {i + 1:2d}/{len(views)} (el {np.degrees(view[0]):4.1f}, az {np.degrees(view[1]):5.1f}): "
               f"loss {history[-1].total:.4f}", flush=True)
     t_train = time.perf_counter() - start
-    result = evaluator.evaluate(implicit)
-    print(f"target-only PSNR {result['psnr']:.2f} dB over {len(evaluator.poses)} test views | mesh precision "
+    result = world.evaluator.evaluate(implicit)
+    print(f"target-only PSNR {result['psnr']:.2f} dB over {len(world.evaluator.poses)} test views | mesh precision "
           f"{result['precision']:.3f} completeness {result['completeness']:.3f} F1 {result['f1']:.3f} "
           f"(1 cm, {preset.eval.mesh_points} points) | training {t_train:.1f} s, evaluation {result['time_total_s']:.1f} s")
-    if out is not None:
-        if result["mesh"] is not None:
-            result["mesh"].export(out / "target_mesh.ply")
-            print(f"wrote {out / 'target_mesh.ply'}")
+    if out is not None and result["mesh"] is not None:
+        result["mesh"].export(out / "target_mesh.ply")
+        print(f"wrote {out / 'target_mesh.ply'}")
 
 
 def _cmd_run(args):
@@ -141,8 +132,8 @@ def _cmd_run(args):
     tqdm.write(header)
 
     def row(r):
-        def cell(key, width, decimals):  # None: no utility before the first plan, no loss of STE, a null score
-            return f"{r[key]:{width}.{decimals}f}" if r[key] is not None else f"{'-':>{width}}"
+        def cell(key, width, decimals):  # "-": no utility before the first plan or of this planner, no loss of STE
+            return f"{r[key]:{width}.{decimals}f}" if r.get(key) is not None else f"{'-':>{width}}"
         t = r["time_s"]
         tqdm.write(f"{r['step']:4d} {r['view_deg'][0]:6.1f} {r['view_deg'][1]:6.1f} {cell('utility', 9, 1)} {cell('loss', 7, 4)} "
                    f"{cell('psnr', 6, 2)} {cell('psnr_clean', 6, 2)} {cell('precision', 5, 3)} {cell('completeness', 5, 3)} "
@@ -158,7 +149,7 @@ def _cmd_run(args):
         records = mission.run(on_step=row)
     except KeyboardInterrupt:
         bar.close()
-        print(f"\ninterrupted: {mission.saved_steps} steps are saved in {out / 'metrics.json'}; "
+        print(f"\ninterrupted: {mission.saved_steps} steps are saved in {mission.metrics_path}; "
               "run again with --resume to continue", file=sys.stderr)
         return 130
     bar.close()
@@ -178,14 +169,14 @@ def _cmd_run(args):
 
 
 def _cmd_sweep(args):
-    from .experiments import ALL_VARIANTS, BASE_VARIANTS, PAPER_SCENES, SweepSpec, run_sweep
+    from .experiments import PAPER_SCENES, SweepSpec, all_variants, base_variants, run_sweep
 
     scenes = PAPER_SCENES if args.scenes == "all" else tuple(args.scenes.split(","))
-    variants = {"all": ALL_VARIANTS, "base": BASE_VARIANTS}.get(args.planners, tuple(args.planners.split(",")))
+    variants = {"all": all_variants, "base": base_variants}.get(args.planners, lambda: tuple(args.planners.split(",")))()
     if args.seeds < 1:
         raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
-    if not 0 <= args.first_seed <= 2**32 - args.seeds:
-        raise ValueError(f"--first-seed must be from 0 to 2**32 - --seeds, got {args.first_seed}")
+    if not 0 <= args.first_seed <= SEED_LIMIT - args.seeds:
+        raise ValueError(f"--first-seed must be from 0 to {SEED_LIMIT} - --seeds, got {args.first_seed}")
     if args.workers < 1:
         raise ValueError(f"--workers must be at least 1, got {args.workers}")
     spec = SweepSpec(scenes, variants, tuple(range(args.first_seed, args.first_seed + args.seeds)), args.preset, args.budget,
@@ -227,7 +218,8 @@ def _cmd_report(args):
 
     from .claims import metrics_of
     from .experiments import collect, summary, write_table
-    from .plotting import METRIC_LABELS, plot_sweep_curves
+    from .metrics import METRICS
+    from .plotting import plot_sweep_curves
 
     root = Path(args.results)
     rows = collect(root, log=_warn)
@@ -236,16 +228,17 @@ def _cmd_report(args):
     table = write_table(rows, root / "results.csv")
     metrics = metrics_of(rows)
     for metric in metrics:
-        axes = plot_sweep_curves(rows, metric, ylabel=METRIC_LABELS[metric])
+        axes = plot_sweep_curves(rows, metric, ylabel=METRICS[metric].label)
         axes[0].figure.tight_layout()
         axes[0].figure.savefig(root / f"curves_{metric}.png", dpi=90)
     plt.close("all")
-    print("area under each curve (the mean over the steps), mean +- std over seeds; chamfer in cm")
-    scale = {"chamfer": 100.0}
+    scale = {m: METRICS[m].report_scale for m in metrics}
+    print("area under each curve (the mean over the steps), mean +- std over seeds"
+          + "".join(f"; {m} x {s:g}" for m, s in scale.items() if s != 1))
     print(f"{'scene':10s} {'variant':16s} {'n':>2s}" + "".join(f" {m:>15s}" for m in metrics))
     for e in summary(rows, metrics):
         print(f"{e['scene']:10s} {e['variant']:16s} {e['seeds']:2d}" + "".join(
-            f" {scale.get(m, 1) * e[m + '_auc_mean']:7.3f} +- {scale.get(m, 1) * e[m + '_auc_std']:4.2f}" for m in metrics))
+            f" {scale[m] * e[m + '_auc_mean']:7.3f} +- {scale[m] * e[m + '_auc_std']:4.2f}" for m in metrics))
     print(f"wrote {table}, " + ", ".join(str(root / f"curves_{m}.png") for m in metrics))
     return 0
 
@@ -279,13 +272,13 @@ def _cmd_headroom(args):
 
     from .experiments import PAPER_SCENES
     from .headroom import Headroom, measure_headroom, print_headroom
-    from .mission import make_output_folder
+    from .results_folder import make_output_folder
     from .plotting import plot_headroom
 
     out = make_output_folder(args.out)
     scenes = PAPER_SCENES if args.scene == "all" else tuple(args.scene.split(","))
     afters = _whole_numbers("--after", args.after)
-    utilities = tuple(args.utilities.split(","))
+    utilities = tuple(args.utilities.split(",")) if args.utilities else None
     for scene in scenes:
         for after in afters:
             stem = out / f"{Path(scene).stem}_after{after}"
@@ -293,11 +286,11 @@ def _cmd_headroom(args):
                 print(f"{stem}.json exists: kept (delete it to measure again)")
                 continue
             result = measure_headroom(scene, after, args.candidates, seed=args.seed, preset=args.preset,
-                                      utilities=utilities, streams=args.streams,
+                                      utilities=utilities, streams=args.streams, device=args.device,
                                       log=lambda line: None if args.quiet else print(line, flush=True))
             command = (f"python -m stair_lite headroom --scene {scene} --after {after} --candidates {args.candidates} "
-                       f"--seed {args.seed} --preset {args.preset} --streams {args.streams} --utilities {args.utilities} "
-                       f"--out {args.out}")
+                       f"--seed {args.seed} --preset {args.preset} --streams {args.streams} "
+                       + (f"--utilities {args.utilities} " if args.utilities else "") + f"--out {args.out}")
             stem = result.save(out, command)
             axes = plot_headroom(result)
             axes[0].figure.tight_layout()
@@ -325,9 +318,25 @@ def _whole_numbers(option: str, text: str) -> tuple[int, ...]:
         raise ValueError(f"{option} takes whole numbers separated by commas, got {text!r}") from None
 
 
+def _shared_options() -> dict[str, argparse.ArgumentParser]:
+    """Parent parsers of the options several commands share, each defined once."""
+    compute = argparse.ArgumentParser(add_help=False)
+    compute.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")
+    labels = argparse.ArgumentParser(add_help=False)
+    labels.add_argument("--label-noise", default="none", choices=list(LABEL_NOISE), help="the segmenter's noise level "
+                        "(segmenter.py; default: exact labels, as the paper)")
+    preset = argparse.ArgumentParser(add_help=False)
+    preset.add_argument("--preset", default="lite", choices=sorted(PRESETS))
+    mission = argparse.ArgumentParser(add_help=False)
+    mission.add_argument("--seed", type=int, default=0)
+    mission.add_argument("--targets", default=None, help="comma-separated class names (default: the scene's)")
+    return {"compute": compute, "labels": labels, "preset": preset, "mission": mission}
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m stair_lite", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
+    shared = _shared_options()
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("scenes", help="list the shipped scenes, or describe scene files")
     p.add_argument("files", nargs="*", help="scene files (JSON) to describe instead")
@@ -336,70 +345,59 @@ def main(argv=None):
     p.add_argument("--scene", default="scene1")
     p.add_argument("--out", default="runs/render")
     p.set_defaults(func=_cmd_render)
-    p = sub.add_parser("fit", help="fit a field to fixed spread views and evaluate it")
+    p = sub.add_parser("fit", help="fit a field to fixed spread views and evaluate it",
+                       parents=[shared[k] for k in ("preset", "mission", "compute", "labels")])
     p.add_argument("--scene", default="scene1")
-    p.add_argument("--preset", default="lite", choices=["lite", "paper"])
     p.add_argument("--views", type=int, default=10)
-    p.add_argument("--targets", default=None, help="comma-separated class names (default: the scene's)")
-    p.add_argument("--seed", type=int, default=0)
     p.add_argument("--iterations", type=int, default=None, help="override iterations per view")
     p.add_argument("--rays", type=int, default=None, help="override new and replay rays per iteration")
-    p.add_argument("--eval-preset", default=None, choices=["lite", "paper"], help="evaluate with another preset's protocol")
+    p.add_argument("--eval-preset", default=None, choices=sorted(PRESETS), help="evaluate with another preset's protocol")
     p.add_argument("--out", default=None, help="folder for the target mesh (PLY)")
-    p.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")
-    p.add_argument("--label-noise", default="none", choices=list(LABEL_NOISE), help="the segmenter's noise level "
-                   "(segmenter.py; default: exact labels, as the paper)")
     p.set_defaults(func=_cmd_fit)
-    p = sub.add_parser("run", help="run one active reconstruction mission")
+    p = sub.add_parser("run", help="run one active reconstruction mission",
+                       parents=[shared[k] for k in ("preset", "mission", "compute", "labels")])
     p.add_argument("--scene", default="scene1")
-    p.add_argument("--planner", default="stair", help=", ".join((*PLANNERS, REPLAY)))
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--preset", default="lite", choices=sorted(PRESETS))
-    p.add_argument("--targets", default=None, help="comma-separated class names (default: the scene's)")
+    p.add_argument("--planner", default="stair", help=", ".join((*PLANNERS, REPLAY)) + ", or path/to/file.py:ClassName "
+                   "(your own subclass of stair_lite.planners.Planner)")
     p.add_argument("--budget", type=int, default=None, help="number of measurements, the top view included "
                    "(default: the preset's, 10)")
     p.add_argument("--epsilon", type=float, default=None, help="exploration weight of the STAIR utility (default: the preset's, 0.2)")
-    p.add_argument("--mapper", default=None, choices=MAP_KINDS, help="the map that is evaluated (default: the map the "
-                   "planner reads, else the field)")
+    p.add_argument("--mapper", default=None, choices=list(MAP_KINDS), help="the map that is evaluated (default: the map "
+                   "the planner reads, else the field)")
     p.add_argument("--replay", default=None, help="with --planner replay: a metrics.json whose views are followed")
     p.add_argument("--out", default="runs/demo")
     p.add_argument("--resume", action="store_true", help="continue a mission found in --out")
     p.add_argument("--overwrite", action="store_true", help="replace the results found in --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")
-    p.add_argument("--label-noise", default="none", choices=list(LABEL_NOISE), help="the segmenter's noise level "
-                   "(segmenter.py; default: exact labels, as the paper)")
     p.set_defaults(func=_cmd_run)
-    p = sub.add_parser("sweep", help="missions over scenes x planner variants x seeds")
+    p = sub.add_parser("sweep", help="missions over scenes x planner variants x seeds",
+                       parents=[shared[k] for k in ("preset", "compute", "labels")])
     p.add_argument("--scenes", default="all", help="'all' (scene1-4) or comma-separated scene names")
-    p.add_argument("--planners", default="all", help="'all', 'base' or comma-separated variants (e.g. stair,ste,stair_eps0.5)")
+    p.add_argument("--planners", default="all", help="'all', 'base' or comma-separated variants (e.g. stair,ste,stair_eps0.5,"
+                   "path/to/file.py:ClassName)")
     p.add_argument("--seeds", type=int, default=5, help="number of seeds per cell")
     p.add_argument("--first-seed", type=int, default=0)
-    p.add_argument("--preset", default="lite", choices=sorted(PRESETS))
     p.add_argument("--budget", type=int, default=None, help="measurements per mission (default: the preset's, 10)")
     p.add_argument("--workers", type=int, default=1, help="cells in parallel: N > 1 starts a local Dask cluster of N "
                    "single-threaded worker processes")
     p.add_argument("--scheduler", default=None, help="address of an existing Dask cluster (tcp://host:8786) to run the cells on")
     p.add_argument("--out", default="runs/sweep")
     p.add_argument("--quiet", action="store_true")
-    p.add_argument("--device", default="cpu", help="cpu or cuda (the paper preset is meant for a GPU)")
-    p.add_argument("--label-noise", default="none", choices=list(LABEL_NOISE), help="the segmenter's noise level "
-                   "(segmenter.py; default: exact labels, as the paper)")
     p.set_defaults(func=_cmd_sweep)
     p = sub.add_parser("report", help="results table, curves and summary of a sweep folder")
     p.add_argument("--results", default="runs/sweep")
     p.set_defaults(func=_cmd_report)
-    p = sub.add_parser("headroom", help="does a utility predict what a view will teach? (realised gains of spread views)")
+    p = sub.add_parser("headroom", help="does a utility predict what a view will teach? (realised gains of spread views)",
+                       parents=[shared[k] for k in ("preset", "compute")])
     p.add_argument("--scene", default="scene1", help="a scene, comma-separated scenes, or 'all' (scene1-4)")
     p.add_argument("--after", default="3", help="views of a seeded STAIR mission before the candidate view (or a "
                    "comma-separated list)")
     p.add_argument("--candidates", type=int, default=16, help="spread candidate views (a Fibonacci set)")
     p.add_argument("--streams", type=int, default=1, help="training streams each spread view is realised with (> 1: "
                    "the noise ceiling)")
-    p.add_argument("--utilities", default="stair,exploration,max_distance", help="the planners whose utility and pick "
-                   "are measured")
+    p.add_argument("--utilities", default=None, help="comma-separated planners whose utility and pick are measured, "
+                   "registered or path/to/file.py:ClassName (default: every registered planner with a utility)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--preset", default="lite", choices=sorted(PRESETS))
     p.add_argument("--out", default="runs/headroom")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_headroom)

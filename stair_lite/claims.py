@@ -27,19 +27,17 @@ from scipy import stats
 
 from .experiments import epsilon_of
 from .geometry import Intrinsics
+from .metrics import METRICS, compared_metrics
 from .scenes import build_scene, load_scene_spec
 from .simulator import Simulator
 
 ALPHA = 0.05
 IMPLICIT_BASELINES = ("exploration", "fixed", "max_distance", "uniform")
-METRICS = ("psnr", "psnr_clean", "f1", "f1_2cm", "f1_5cm", "chamfer")  # see stair_lite.evaluation
-LOWER_IS_BETTER = ("chamfer",)
-DIGITS = {"psnr": 2, "psnr_clean": 2, "chamfer": 4}  # decimals shown per metric (3 for the F1 scores)
 
 
 def metrics_of(rows) -> tuple[str, ...]:
-    """The metrics every row has (results stored before ``psnr_clean`` existed lack it)."""
-    return tuple(m for m in METRICS if all(r.get(m) is not None for r in rows))
+    """The compared metrics (metrics.py) every row has (a metric registered after a mission ran is missing there)."""
+    return tuple(m for m in compared_metrics() if all(r.get(m) is not None for r in rows))
 
 
 def seeds_of(rows, scene: str, variant: str) -> list[int]:
@@ -95,10 +93,10 @@ class Comparison:
     def verdict(self) -> str:
         if not self.p_value < ALPHA:
             return "not significant"
-        return "holds" if (self.difference > 0) != (self.metric in LOWER_IS_BETTER) else "reversed"
+        return "holds" if (self.difference > 0) != METRICS[self.metric].lower_is_better else "reversed"
 
     def describe(self) -> str:
-        a, b, d = self.claimed_scores, self.other_scores, DIGITS.get(self.metric, 3)
+        a, b, d = self.claimed_scores, self.other_scores, METRICS[self.metric].digits
         return (f"{self.scene} {self.metric}: {self.claimed} {a.mean():.{d}f} +- {a.std():.{d}f} vs "
                 f"{self.other} {b.mean():.{d}f} +- {b.std():.{d}f} (paired over {len(a)} seeds, difference "
                 f"{self.difference:+.{d}f}, p = {self.p_value:.3f}): {self.verdict}")
@@ -139,7 +137,7 @@ def claim_one(rows) -> list[Comparison]:
     out = []
     for scene in scenes_of(rows):
         for metric in metrics_of(rows):
-            sign = -1 if metric in LOWER_IS_BETTER else 1
+            sign = -1 if METRICS[metric].lower_is_better else 1
             strongest = max(IMPLICIT_BASELINES, key=lambda v: sign * per_seed_scores(rows, scene, v, metric).mean())
             out.append(compare(rows, scene, metric, "stair", strongest))
     return out
@@ -224,7 +222,7 @@ def first_sight(rows, min_pixels: int = MIN_PIXELS) -> dict[tuple[str, int], int
 def _table(comparisons: list[Comparison]) -> list[str]:
     lines = ["| scene | metric | claimed side | other side | paired difference | p | verdict |", "|---|---|---|---|---|---|---|"]
     for c in comparisons:
-        a, b, d = c.claimed_scores, c.other_scores, DIGITS.get(c.metric, 3)
+        a, b, d = c.claimed_scores, c.other_scores, METRICS[c.metric].digits
         lines.append(f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} ± {a.std():.{d}f} | "
                      f"{c.other} {b.mean():.{d}f} ± {b.std():.{d}f} | {c.difference:+.{d}f} ± {c.differences.std():.{d}f} "
                      f"(n={len(a)}) | {c.p_value:.3f} | {c.verdict} |")

@@ -12,6 +12,7 @@ from dataclasses import field as dataclass_field
 from .lattice import CUBE_BOUND
 
 
+SEED_LIMIT = 2**32  # seeds are whole numbers from 0 to SEED_LIMIT - 1 (numpy's and torch's seeds)
 MAX_BUDGET = 50  # measurements: the 8.1 deg caps around 49 visited views cover at most half the hemisphere
 # The largest exploration weight: the utility is summed in float32, whose 24-bit mantissa resolves 6e-8 of a
 # value, and U_et <= U_er, so beyond about 1e7 the exploitation term no longer changes any choice (the planner is

@@ -26,6 +26,7 @@ from .classes import BACKGROUND
 from .config import Preset
 from .geometry import Intrinsics, test_views, view_to_pose
 from .lattice import Lattice, xyz
+from .metrics import OCCUPIED
 from .simulator import Simulator, target_only_image
 
 GROUND_CUT_Z = -0.05  # the ground's top is z = 0; nothing below it is observable, so metrics ignore it
@@ -70,7 +71,7 @@ def occupancy_volume(field, resolution: int, targets=None, z_min: float | None =
     return xyz(volume), lattice
 
 
-def extract_mesh(field, resolution: int = 128, targets=None, threshold: float = 0.5, skip=None) -> trimesh.Trimesh | None:
+def extract_mesh(field, resolution: int = 128, targets=None, threshold: float = OCCUPIED, skip=None) -> trimesh.Trimesh | None:
     """Marching cubes of the (target-only) occupancy at ``threshold`` (paper: 0.5); None when nothing is occupied.
     ``skip``: see ``occupancy_volume``."""
     volume, lattice = occupancy_volume(field, resolution, targets, z_min=GROUND_CUT_Z, skip=skip)

@@ -25,18 +25,30 @@ import numpy as np
 
 from .config import check_epsilon, get_preset
 from .maps import EXPLICIT, IMPLICIT
-from .mission import (METRICS_FILE, SCORE_COLUMNS, FolderInUseError, Mission, MissionConfig, ResultsFolderError,
-                      make_output_folder, write_json_atomically)
-from .planners import PAPER_PLANNERS, PLANNERS, REPLAY
+from .metrics import METRICS
+from .mission import Mission, MissionConfig
+from .planners import PLANNERS, REPLAY, is_planner_file, paper_planners, planner_class, planner_file_hash
+from .results_folder import (FORMAT, METRICS_FILE, FolderInUseError, ResultsFolderError, make_output_folder,
+                             upgrade_header, write_json_atomically)
 from .scenes import list_scenes, scene_content_hash, scene_key
 from .segmenter import EXACT, label_noise
 
 PAPER_SCENES = ("scene1", "scene2", "scene3", "scene4")
 SWEEP_FILE = "sweep.json"
 RESULTS_DIR = Path(__file__).resolve().parent.parent / "data" / "results"  # the stored sweeps
-TABLE_COLUMNS = ("scene", "variant", "seed", "step", "psnr", "psnr_clean", "precision", "completeness", "f1", "chamfer",
-                 "f1_2cm", "f1_5cm", "phantom",
-                 *SCORE_COLUMNS, "loss", "elevation_deg", "azimuth_deg", "time_plan_s", "time_train_s", "time_evaluate_s")
+
+
+def score_columns() -> tuple[str, ...]:
+    """The score columns of every registered planner, each once, in registration order."""
+    return tuple(dict.fromkeys(c for r in PLANNERS.values() for c in r.cls.score_columns))
+
+
+def table_columns(extra_scores: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """The results table's columns: the cell, every registered metric, the planners' scores (and ``extra_scores``, a
+    researcher's planner's own), the loss, the view and the phases' times."""
+    return ("scene", "variant", "seed", "step", *METRICS, *dict.fromkeys((*score_columns(), *extra_scores)), "loss",
+            "elevation_deg", "azimuth_deg", "time_plan_s", "time_train_s", "time_evaluate_s")
+
 EPSILON_PREFIX = "stair_eps"
 
 
@@ -53,13 +65,28 @@ class Variant:
     epsilon: float | None = None
 
 
-# Every planner is a variant; the cross-validation evaluates one planner's views on the other map.
-VARIANTS = {**{name: Variant(name, name) for name in PLANNERS},
-            "stair_explicit": Variant("stair_explicit", REPLAY, EXPLICIT, replays="stair"),
-            "ste_implicit": Variant("ste_implicit", REPLAY, IMPLICIT, replays="ste")}
-BASE_VARIANTS = tuple(PAPER_PLANNERS)
-CROSS_VALIDATION = {v.name: v.replays for v in VARIANTS.values() if v.replays}  # variant -> the variant it replays
-ALL_VARIANTS = (*BASE_VARIANTS, *CROSS_VALIDATION)  # the paper's comparison ("all"); the others are named
+# The paper's cross-validation: one planner's views evaluated on the other map.
+CROSS_VALIDATION_VARIANTS = {"stair_explicit": Variant("stair_explicit", REPLAY, EXPLICIT, replays="stair"),
+                             "ste_implicit": Variant("ste_implicit", REPLAY, IMPLICIT, replays="ste")}
+CROSS_VALIDATION = {v.name: v.replays for v in CROSS_VALIDATION_VARIANTS.values()}  # variant -> the variant it replays
+
+
+def base_variants() -> tuple[str, ...]:
+    """The paper's planners (a sweep's "base")."""
+    return paper_planners()
+
+
+def all_variants() -> tuple[str, ...]:
+    """The paper's comparison ("all"): its planners and the cross-validation; the others are named."""
+    return (*paper_planners(), *CROSS_VALIDATION)
+
+
+def variant_key(name: str) -> str:
+    """The folder name of a variant: its name, or for ``path/to/file.py:ClassName`` the file's stem and the class."""
+    if is_planner_file(name):
+        path, _, cls = name.rpartition(":")
+        return f"{Path(path).stem}.{cls}"
+    return name
 
 
 @dataclass(frozen=True)
@@ -69,7 +96,7 @@ class Cell:
     seed: int
 
     def folder(self, root: Path) -> Path:
-        return Path(root) / scene_key(self.scene) / self.variant / f"seed{self.seed}"
+        return Path(root) / scene_key(self.scene) / variant_key(self.variant) / f"seed{self.seed}"
 
     def steps(self, root: Path) -> list[dict]:
         """The stored step records of this cell under ``root``."""
@@ -82,9 +109,15 @@ def epsilon_of(name: str) -> float:
 
 
 def variant(name: str) -> Variant:
-    """The variant of a name: a known one or ``stair_eps<non-negative number>`` (STAIR with that epsilon)."""
-    if name in VARIANTS:
-        return VARIANTS[name]
+    """The variant of a name: a registered planner, a cross-validation variant, ``stair_eps<non-negative number>``
+    (STAIR with that epsilon) or a researcher's planner ``path/to/file.py:ClassName``."""
+    if name in PLANNERS:
+        return Variant(name, name)
+    if name in CROSS_VALIDATION_VARIANTS:
+        return CROSS_VALIDATION_VARIANTS[name]
+    if is_planner_file(name):
+        planner_class(name)  # loads it: a missing file or class is named now, not in a worker
+        return Variant(name, name)
     if name.startswith(EPSILON_PREFIX):
         try:
             epsilon = epsilon_of(name)
@@ -96,7 +129,8 @@ def variant(name: str) -> Variant:
             except ValueError as err:
                 raise ValueError(f"planner variant {name!r}: {err}") from None
             return Variant(name, "stair", epsilon=epsilon)
-    raise ValueError(f"unknown planner variant {name!r}; choose from {', '.join(VARIANTS)} or {EPSILON_PREFIX}<value>")
+    raise ValueError(f"unknown planner variant {name!r}; choose from {', '.join((*PLANNERS, *CROSS_VALIDATION))}, "
+                     f"{EPSILON_PREFIX}<value> or path/to/file.py:ClassName")
 
 
 def mission_config(cell: Cell, root: Path, preset: str, budget: int | None = None,
@@ -167,6 +201,10 @@ class SweepSpec:
                              "under its name without .json): rename one")
         for v in self.variants:
             variant(v)
+        keys = [variant_key(v) for v in self.variants]
+        if len(set(keys)) < len(keys):
+            raise ValueError(f"two planners of {list(self.variants)} would share a results folder (a planner file's cells "
+                             "are stored under its file's stem and class name): rename one")
         if not self.seeds or min(self.seeds) < 0:
             raise ValueError(f"seeds must be non-negative, got {list(self.seeds)}")
         preset = get_preset(self.preset)
@@ -211,10 +249,12 @@ def check_sweep_folder(root: Path, spec: SweepSpec, log=print) -> None:
     mine = {"preset": spec.preset, "budget": spec.budget, "preset_values": asdict(get_preset(spec.preset)),
             "label_noise": spec.label_noise}
     files = {scene_key(s): scene_content_hash(s) for s in spec.scenes}  # shipped scenes too: a file may share a name
+    planner_files = {variant_key(v): planner_file_hash(v) for v in spec.variants if is_planner_file(v)}
     if path.exists():
         try:
-            stored = {"label_noise": EXACT, **json.loads(path.read_text())}  # folders from before noisy labels: exact
+            stored = upgrade_header(json.loads(path.read_text()))
             stored_files = dict(stored.get("scene_files", {}))
+            stored_planner_files = dict(stored.get("planner_files", {}))
         except (json.JSONDecodeError, UnicodeDecodeError, AttributeError, TypeError, ValueError) as err:
             raise ValueError(f"{path} is unreadable ({err}); restore it, or use another folder") from None
         if {k: stored.get(k) for k in mine} != json.loads(json.dumps(mine)):
@@ -226,13 +266,20 @@ def check_sweep_folder(root: Path, spec: SweepSpec, log=print) -> None:
             details = ", ".join(f"{k}: {stored_files[k]} there, {files[k]} now" for k in changed)
             raise ValueError(f"{root} holds results of other scenes named {changed} (scene content {details}): a scene "
                              "file was edited, or shares its name with another scene; restore it or use another folder")
+        changed = sorted(k for k in planner_files if k in stored_planner_files and stored_planner_files[k] != planner_files[k])
+        if changed:
+            details = ", ".join(f"{k}: {stored_planner_files[k]} there, {planner_files[k]} now" for k in changed)
+            raise ValueError(f"{root} holds results of planner files {changed} whose content has changed ({details}): "
+                             "restore the file, or use another folder")
         if stored.get("source_hash") != source_hash():
             log(f"warning: {root} was started with stair_lite sources {stored.get('source_hash')}, these are "
                 f"{source_hash()}: finished cells are kept; delete them to recompute with this code")
-        if set(files) - set(stored_files):
-            write_json_atomically(path, {**stored, "scene_files": {**stored_files, **files}})
+        if set(files) - set(stored_files) or set(planner_files) - set(stored_planner_files):
+            write_json_atomically(path, {**stored, "scene_files": {**stored_files, **files},
+                                         "planner_files": {**stored_planner_files, **planner_files}})
     else:
-        write_json_atomically(path, {**mine, "source_hash": source_hash(), "scene_files": files})
+        write_json_atomically(path, {"format": FORMAT, **mine, "source_hash": source_hash(), "scene_files": files,
+                                     "planner_files": planner_files})
 
 
 def replay_source(cell: Cell) -> Cell | None:
@@ -393,15 +440,13 @@ def collect(root: str | Path, log=print) -> list[dict]:
         if len(steps) < budget:
             log(f"skipping unfinished {path} ({len(steps)} of {budget} steps)")
             continue
-        planner = stored.get("config", {}).get("planner")
+        planner = stored.get("config", {}).get("planner", "")
+        scores = PLANNERS[planner].cls.score_columns if planner in PLANNERS else score_columns()
         for r in steps:
-            scores = {k: r.get(k) for k in SCORE_COLUMNS}
-            if planner == "ste" and "ste_utility" not in r:  # written before STE's score had its own column
-                scores = {**dict.fromkeys(SCORE_COLUMNS), "ste_utility": r["utility"]}
             rows.append({
                 "scene": scene, "variant": variant_name, "seed": seed, "step": r["step"],
-                **{k: r[k] for k in ("psnr", "precision", "completeness", "f1", "chamfer", "loss")}, **scores,
-                **{k: r.get(k) for k in ("psnr_clean", "f1_2cm", "f1_5cm", "phantom")},  # older missions lack them
+                **{k: r.get(k) for k in METRICS}, "loss": r["loss"],  # a metric registered after the mission ran: None
+                **{k: r.get(k) for k in scores},
                 "elevation_deg": r["view_deg"][0], "azimuth_deg": r["view_deg"][1],
                 "time_plan_s": r["time_s"]["plan"], "time_train_s": r["time_s"]["train"],
                 "time_evaluate_s": r["time_s"]["evaluate"],
@@ -411,8 +456,10 @@ def collect(root: str | Path, log=print) -> list[dict]:
 
 def write_table(rows: list[dict], path: str | Path) -> Path:
     path = Path(path)
+    known = table_columns()
+    extra = tuple(dict.fromkeys(k for r in rows for k in r if k not in known))
     with path.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=TABLE_COLUMNS)
+        writer = csv.DictWriter(f, fieldnames=table_columns(extra))
         writer.writeheader()
         writer.writerows(rows)
     return path

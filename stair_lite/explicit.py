@@ -19,8 +19,9 @@ from .classes import NUM_CLASSES
 from .config import ExplicitConfig, Preset
 from .geometry import Intrinsics, pixel_rays, view_to_pose
 from .lattice import VoxelGrid, xyz
-from .maps import EXPLICIT, ReconstructionMap
+from .maps import EXPLICIT, ReconstructionMap, register_map
 from .measurement import Measurement
+from .metrics import OCCUPIED
 from .rendering import ray_box_intersection
 from .training import Losses
 
@@ -50,6 +51,7 @@ def octomap_update(log_odds: torch.Tensor, crossed: torch.Tensor, hit: torch.Ten
     log_odds[hit] = (log_odds[hit] + l_hit).clamp(l_min, l_max)
 
 
+@register_map
 class ExplicitMap(ReconstructionMap):
     """A semantic occupancy grid over the scene cube, on a ``VoxelGrid`` (voxel (i, j, k) covers
     x in [-b + i v, -b + (i+1) v)). Planners (STE's) read the map itself.
@@ -152,7 +154,7 @@ class ExplicitMap(ReconstructionMap):
         keep = torch.isin(self.labels, torch.as_tensor(targets, device=self.device))
         return xyz((self.probability * keep).view(r, r, r)).cpu().numpy()
 
-    def extract_target_mesh(self, targets, threshold: float = 0.5):
+    def extract_target_mesh(self, targets, threshold: float = OCCUPIED):
         """Marching cubes of the target-only occupancy, on voxel centres (None when nothing is occupied)."""
         import trimesh
         from skimage.measure import marching_cubes
@@ -171,7 +173,7 @@ class ExplicitMap(ReconstructionMap):
         r = self.cfg.resolution
         centres_z = self.grid.first_centre() + self.voxel * torch.arange(r, device=self.device)
         layers = int((centres_z < z_max).sum())
-        return float((self.probability.view(r, r, r)[:layers] > 0.5).float().mean()) if layers else 0.0
+        return float((self.probability.view(r, r, r)[:layers] > OCCUPIED).float().mean()) if layers else 0.0
 
     def target_only_renders(self, intrinsics, poses, targets, z_min):
         """First-hit renders; the same images twice: the map holds only voxels it has seen occupied, so
@@ -194,7 +196,7 @@ class ExplicitMap(ReconstructionMap):
         origins = torch.as_tensor(origins, dtype=torch.float32, device=self.device)
         dirs = torch.as_tensor(dirs, dtype=torch.float32, device=self.device)
         index, valid = self._march(origins, dirs)
-        solid = (self.probability > 0.5) & torch.isin(self.labels, torch.as_tensor(targets, device=self.device))
+        solid = (self.probability > OCCUPIED) & torch.isin(self.labels, torch.as_tensor(targets, device=self.device))
         hit = solid[index] & valid
         first = hit.float().argmax(dim=1)
         any_hit = hit.any(dim=1)
@@ -210,7 +212,7 @@ class ExplicitMap(ReconstructionMap):
         ``roi_max_distance`` voxels); a ray's score is normalised by its number of in-grid samples,
         and a view's utility is the sum over its rays (the reference code's ROI utility)."""
         cfg, r = self.cfg, self.cfg.resolution
-        roi = torch.isin(self.labels, torch.as_tensor(targets, device=self.device)) & (self.probability > 0.5)
+        roi = torch.isin(self.labels, torch.as_tensor(targets, device=self.device)) & (self.probability > OCCUPIED)
         if roi.any():
             distance = distance_transform_edt(~roi.view(r, r, r).cpu().numpy())
             bonus = np.maximum(0.0, 0.5 * (cfg.roi_max_distance - distance) / cfg.roi_max_distance)
@@ -219,7 +221,7 @@ class ExplicitMap(ReconstructionMap):
             bonus = torch.zeros(r**3, device=self.device)
         # one table: the score of an unknown voxel, 0 for a known free one, -1 marks an occupied one
         table = torch.where(self.observed, torch.zeros(1, device=self.device), 0.5 + bonus)
-        table = torch.where(self.probability > 0.5, torch.full_like(table, -1.0), table)
+        table = torch.where(self.probability > OCCUPIED, torch.full_like(table, -1.0), table)
         k = Intrinsics.from_fov().scaled(cfg.candidate_scale)
         scores = []
         for start in range(0, len(views), 25):

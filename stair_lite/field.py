@@ -153,6 +153,11 @@ class SemanticField(nn.Module):
         # occupancy is zero where none of a cell's corners is marked: a new field is empty everywhere. Derived from the
         # measurements, which a resumed mission adds again, so checkpoints do not store it
         self.register_buffer("reached", torch.zeros(r**3, dtype=torch.bool), persistent=False)
+        # how often the measurements saw a surface at each vertex (the nearest vertex of a back-projected depth point):
+        # in how many views, and by how many rays. Read by the coverage and Fisher utilities (utility.py); derived from
+        # the measurements like ``reached``
+        self.register_buffer("surface_views", torch.zeros(r**3), persistent=False)
+        self.register_buffer("surface_rays", torch.zeros(r**3), persistent=False)
         # True while training.accumulate_gradient runs: the grids' gradients are added into their existing .grad
         # (the sum autograd would form) instead of into a new full-size zero table per pass
         self.grid_grad_into_existing = False

@@ -20,14 +20,22 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from .claims import LOWER_IS_BETTER
 from .geometry import fibonacci_hemisphere, view_to_pose
-from .maps import ImplicitMap
-from .mission import Mission, MissionConfig, make_output_folder
-from .planners import far_enough, make_planner
+from .maps import IMPLICIT, ImplicitMap
+from .metrics import METRICS, compared_metrics
+from .mission import Mission, MissionConfig
+from .planners import PLANNERS, Planner, far_enough, make_planner
+from .results_folder import make_output_folder
 
-METRICS = ("psnr", "psnr_clean", "f1", "f1_5cm", "chamfer")
-UTILITIES = ("stair", "exploration", "max_distance")  # the planners whose utility and pick are measured by default
+FORMER_METRICS = ("psnr", "psnr_clean", "f1", "f1_5cm", "chamfer")  # the metrics of tables stored without a list
+FORMER_UTILITIES = ("stair", "exploration", "max_distance")  # the utilities of tables stored without a list
+MISSION_PLANNER = "stair"  # the planner of the seeded mission whose state the candidates start from
+
+
+def ranking_planners() -> tuple[str, ...]:
+    """The registered planners with a utility (``Planner.utility``) that read the field or no map: the league."""
+    return tuple(name for name, r in PLANNERS.items()
+                 if r.cls.utility is not Planner.utility and r.cls.reads in (None, IMPLICIT))
 
 
 @dataclass
@@ -45,9 +53,10 @@ class Headroom:
     before: dict
     rows: list[dict]
     correlations: dict
-    utilities: tuple[str, ...] = UTILITIES
+    utilities: tuple[str, ...] = FORMER_UTILITIES
     streams: int = 1
     ceiling: dict | None = None
+    metrics: tuple[str, ...] = FORMER_METRICS
 
     def gains(self, metric: str, kind: str = "spread", stream: int = 0) -> np.ndarray:
         return np.array([r[f"gain_{metric}"] for r in self.rows if r["kind"] == kind and int(r.get("stream", 0)) == stream])
@@ -72,7 +81,7 @@ class Headroom:
             writer.writeheader()
             writer.writerows(self.rows)
         summary = {k: v for k, v in asdict(self).items() if k != "rows"}
-        summary["pick_percentiles"] = {p: {m: self.pick_percentile(p, m) for m in METRICS} for p in self.utilities}
+        summary["pick_percentiles"] = {p: {m: self.pick_percentile(p, m) for m in self.metrics} for p in self.utilities}
         summary["command"] = command
         stem.with_suffix(".json").write_text(json.dumps(summary, indent=1))
         return stem
@@ -85,22 +94,19 @@ class Headroom:
             rows = [{k: v if k == "kind" else float(v) for k, v in r.items()} for r in csv.DictReader(f)]
         optional = {k: summary[k] for k in ("streams", "ceiling") if k in summary}
         return cls(**{k: summary[k] for k in ("scene", "after", "seed", "preset", "before", "correlations")}, rows=rows,
-                   utilities=tuple(summary.get("utilities", UTILITIES)), **optional)
-
-
-def gain(metric: str, before: float, after: float) -> float:
-    """The improvement of a metric (a reduction for the chamfer distance)."""
-    return before - after if metric in LOWER_IS_BETTER else after - before
+                   utilities=tuple(summary.get("utilities", FORMER_UTILITIES)),
+                   metrics=tuple(summary.get("metrics", FORMER_METRICS)), **optional)
 
 
 class MapAfter:
-    """A seeded STAIR mission after ``after`` views, and copies of its map that each add one more view: the same
-    training state, and the same random stream (``stream`` 0) or another one (``stream`` k > 0)."""
+    """A seeded mission (``MISSION_PLANNER``'s) after ``after`` views, and copies of its map that each add one more view:
+    the same training state, and the same random stream (``stream`` 0) or another one (``stream`` k > 0)."""
 
-    def __init__(self, scene: str, after: int, seed: int = 0, preset: str = "lite"):
-        self.mission = Mission(MissionConfig(scene=scene, planner="stair", seed=seed, preset=preset, budget=after))
+    def __init__(self, scene: str, after: int, seed: int = 0, preset: str = "lite", device: str = "cpu"):
+        self.mission = Mission(MissionConfig(scene=scene, planner=MISSION_PLANNER, seed=seed, preset=preset, budget=after),
+                               device=device)
         self.mission.run()
-        self.seed = seed
+        self.seed, self.device = seed, device
         self.visited, self.targets = np.array(self.mission.visited), self.mission.targets
         self.before = {m: self.mission.records[-1][m] for m in METRICS}
         self.state = self.mission.map.state_dict()
@@ -118,30 +124,36 @@ class MapAfter:
         return self.field if planner.reads else None
 
     def planner(self, name: str):
-        """The mission's own STAIR planner (its next view is the mission's), or a fresh one of another name."""
-        return self.mission.planner if name == "stair" else make_planner(name, self.mission.preset, seed=self.seed + 1)
+        """The mission's own planner (its next view is the mission's), or a fresh one of another name."""
+        if name == self.mission.config.planner:
+            return self.mission.planner
+        return make_planner(name, self.mission.preset, seed=self.seed + 1)
 
     def realise(self, view: np.ndarray, stream: int = 0) -> dict:
-        """The metrics after adding ``view`` to a copy of the map and training it (training stream ``stream``)."""
-        copy_of_map = ImplicitMap.from_preset(self.mission.preset, seed=self.seed)
+        """Every metric after adding ``view`` to a copy of the map and training it (training stream ``stream``)."""
+        copy_of_map = ImplicitMap.from_preset(self.mission.preset, seed=self.seed, device=self.device)
         for m in self.measurements:
             copy_of_map.add_measurement(m)
         copy_of_map.load_state_dict(copy.deepcopy(self.state))
         if stream:
             copy_of_map.trainer.reseed(np.random.SeedSequence([self.seed, stream]).generate_state(1)[0])
         copy_of_map.integrate(self.mission.simulator.render(view_to_pose(*view)))
-        return self.mission.evaluator.evaluate(copy_of_map)
+        result = self.mission.evaluator.evaluate(copy_of_map)
+        return {name: metric.value(result, copy_of_map) for name, metric in METRICS.items()}
 
 
 def measure_headroom(scene: str, after: int, n_candidates: int, seed: int = 0, preset: str = "lite",
-                     utilities: tuple[str, ...] = UTILITIES, streams: int = 1, log=print) -> Headroom:
+                     utilities: tuple[str, ...] | None = None, streams: int = 1, device: str = "cpu",
+                     log=print) -> Headroom:
     """Run a seeded STAIR mission for ``after`` views, then realise ``n_candidates`` spread views (each with
     ``streams`` training streams) and the picks of the planners in ``utilities`` as the next view, each on a copy of
     the map (see the module)."""
     if after < 1 or n_candidates < 2 or streams < 1:
         raise ValueError(f"need at least 1 view before, 2 candidates and 1 stream, got after={after}, "
                          f"candidates={n_candidates}, streams={streams}")
-    state = MapAfter(scene, after, seed, preset)
+    utilities = ranking_planners() if utilities is None else tuple(utilities)
+    metrics = compared_metrics()
+    state = MapAfter(scene, after, seed, preset, device)
     spread = fibonacci_hemisphere(n_candidates, azimuth_offset=np.random.default_rng(seed).uniform(0, 2 * np.pi))
     spread = spread[far_enough(spread, state.visited)]
     planners = {name: state.planner(name) for name in utilities}
@@ -157,16 +169,17 @@ def measure_headroom(scene: str, after: int, n_candidates: int, seed: int = 0, p
         rows.append({"kind": kind, "stream": stream,
                      "elevation_deg": float(np.degrees(views[i][0])), "azimuth_deg": float(np.degrees(views[i][1])),
                      **{f"u_{u}": float(scores[u][i]) if scores[u] is not None else float("nan") for u in utilities},
-                     **{m: float(result[m]) for m in METRICS},
-                     **{f"gain_{m}": gain(m, state.before[m], float(result[m])) for m in METRICS}})
+                     **{m: float(result[m]) for m in metrics},
+                     **{f"gain_{m}": METRICS[m].gain(state.before[m], float(result[m])) for m in metrics}})
         log(f"{scene} after {after}: view {n + 1}/{len(jobs)} ({kind}, stream {stream}) F1 gain {rows[-1]['gain_f1']:+.3f}, "
             f"clean PSNR gain {rows[-1]['gain_psnr_clean']:+.2f} dB")
-    result = Headroom(scene, after, seed, preset, state.before, rows, {}, tuple(utilities), streams)
+    before = {m: state.before[m] for m in metrics}
+    result = Headroom(scene, after, seed, preset, before, rows, {}, tuple(utilities), streams, metrics=metrics)
     spread_rows = [r for r in rows if r["kind"] == "spread" and r["stream"] == 0]
     result.correlations = {u: {m: rank_correlation([r[f"u_{u}"] for r in spread_rows], [r[f"gain_{m}"] for r in spread_rows])
-                               for m in METRICS} for u in utilities}
+                               for m in metrics} for u in utilities}
     if streams > 1:
-        result.ceiling = {m: noise_ceiling(np.array([result.gains(m, stream=s) for s in range(streams)])) for m in METRICS}
+        result.ceiling = {m: noise_ceiling(np.array([result.gains(m, stream=s) for s in range(streams)])) for m in metrics}
     return result
 
 
@@ -195,7 +208,7 @@ def print_headroom(result: Headroom, out=print) -> None:
     utilities = result.utilities
     out(f"{'metric':>10} {'spread of gains (min / median / max)':>38}" + "".join(f" {u[:12] + ' rho':>16}" for u in utilities)
         + "".join(f" {u[:12] + ' pick':>18}" for u in utilities))
-    for m in METRICS:
+    for m in result.metrics:
         g = result.gains(m)
         out(f"{m:>10} {g.min():12.4f} / {np.median(g):8.4f} / {g.max():8.4f}"
             + "".join(f" {result.correlations[u][m]:+16.2f}" if result.correlations[u][m] is not None else f" {'-':>16}"
@@ -214,9 +227,10 @@ def league(tables: list[Headroom]) -> list[dict]:
     (utility "ceiling", from the tables realised with several streams)."""
     rows = []
     utilities = list(dict.fromkeys(u for t in tables for u in t.utilities))
+    metrics = [m for m in dict.fromkeys(m for t in tables for m in t.metrics) if all(m in t.metrics for t in tables)]
     for u in utilities:
         mine = [t for t in tables if u in t.utilities]
-        for m in METRICS:
+        for m in metrics:
             rhos = [t.correlations[u][m] for t in mine if t.correlations[u][m] is not None]
             shares = [t.best_share(u, m) for t in mine]
             rows.append({"utility": u, "metric": m, "tables": len(mine),
@@ -224,7 +238,7 @@ def league(tables: list[Headroom]) -> list[dict]:
                          "spearman": float(np.mean(rhos)) if rhos else float("nan"),
                          "best_share": float(np.nanmean(shares)) if np.isfinite(shares).any() else float("nan")})
     noisy = [t for t in tables if t.ceiling]
-    for m in METRICS if noisy else ():
+    for m in metrics if noisy else ():
         rhos = [t.ceiling[m]["spearman"] for t in noisy if t.ceiling[m]["spearman"] is not None]
         rows.append({"utility": "ceiling", "metric": m, "tables": len(noisy),
                      "pick_percentile": float(np.mean([t.ceiling[m]["pick_percentile"] for t in noisy])),

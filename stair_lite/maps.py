@@ -19,17 +19,32 @@ from .evaluation import extract_mesh
 from .field import SemanticField
 from .geometry import Intrinsics
 from .measurement import Measurement
+from .metrics import OCCUPIED
 from .rendering import SkipGrid, build_skip_grid, render_target_views_and_cut
 from .training import Losses, Trainer
 
 IMPLICIT, EXPLICIT = "implicit", "explicit"
-MAP_KINDS = (IMPLICIT, EXPLICIT)
+MAP_KINDS: dict[str, type["ReconstructionMap"]] = {}  # kind -> class, filled by ``register_map``
+
+
+def register_map(cls: type["ReconstructionMap"]) -> type["ReconstructionMap"]:
+    """Make a map kind available to missions (``--mapper``) and planners (``Planner.reads``), by its ``kind``; used as a
+    class decorator beside the class."""
+    if cls.kind in MAP_KINDS:
+        raise ValueError(f"a map of kind {cls.kind!r} is already registered")
+    MAP_KINDS[cls.kind] = cls
+    return cls
 
 
 class ReconstructionMap(ABC):
     """What a mission, its evaluator and its planner need of a map."""
 
     kind: str
+
+    @classmethod
+    @abstractmethod
+    def from_preset(cls, preset: Preset, seed: int = 0, device="cpu") -> "ReconstructionMap":
+        """The empty map of a preset; ``seed`` seeds whatever it draws at random."""
 
     @abstractmethod
     def add_measurement(self, m: Measurement) -> None:
@@ -56,13 +71,15 @@ class ReconstructionMap(ABC):
 
     @abstractmethod
     def occupied_share_below(self, z_max: float) -> float:
-        """The share of the map's lattice points below height ``z_max`` with occupancy above 0.5: under
+        """The share of the map's lattice points below height ``z_max`` with occupancy above ``OCCUPIED`` (0.5): under
         the ground no view can see and the scene is empty, so anything there is invented (a phantom)."""
 
     @property
     @abstractmethod
     def planning_source(self):
-        """What a planner of this map's kind reads."""
+        """What a planner of this map's kind reads (``Planner.reads``): the implicit map gives its ``SemanticField``
+        (planners call ``query`` on points and read ``lattice``, ``reached``, ``device``); the explicit map gives
+        itself (STE's planner calls ``roi_scores``)."""
 
     def state_dict(self) -> dict:
         return {}
@@ -71,6 +88,7 @@ class ReconstructionMap(ABC):
         pass
 
 
+@register_map
 class ImplicitMap(ReconstructionMap):
     """The semantic field and its incremental trainer: STAIR's map. Planners read the field."""
 
@@ -119,7 +137,7 @@ class ImplicitMap(ReconstructionMap):
     def occupied_share_below(self, z_max):
         points = self.field.lattice.points(self.field.device)
         below = points[points[:, 2] < z_max]
-        return float((self.field.query(below)["occ"] > 0.5).float().mean()) if len(below) else 0.0
+        return float((self.field.query(below)["occ"] > OCCUPIED).float().mean()) if len(below) else 0.0
 
     @property
     def planning_source(self) -> SemanticField:
@@ -132,3 +150,6 @@ class ImplicitMap(ReconstructionMap):
         self._target_skip = None
         self.field.load_state_dict(state["field"])
         self.trainer.load_state_dict(state["trainer"])
+
+
+from . import explicit  # noqa: E402,F401  (registers the explicit map kind beside its class)

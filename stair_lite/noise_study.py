@@ -18,8 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .claims import DIGITS, Comparison, compare, per_seed_scores, scenes_of, seeds_of
+from .claims import Comparison, compare, per_seed_scores, scenes_of, seeds_of
 from .experiments import RESULTS_DIR, collect
+from .metrics import METRICS as REGISTERED_METRICS
 
 LEVELS = ("none", "low", "high")
 VARIANTS = ("stair", "stair_semantic", "stair_soft", "exploration", "max_distance")
@@ -70,7 +71,7 @@ def _verdict(c: Comparison, words: dict[str, str] = WORDS) -> str:
 
 
 def _line(c: Comparison, words: dict[str, str] = WORDS) -> str:
-    a, b, d = c.claimed_scores, c.other_scores, DIGITS.get(c.metric, 3)
+    a, b, d = c.claimed_scores, c.other_scores, REGISTERED_METRICS[c.metric].digits
     p = f"{c.p_value:.3f}" if len(a) >= 2 else "-"
     return (f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} | {c.other} {b.mean():.{d}f} | "
             f"{c.difference:+.{d}f} ± {c.differences.std():.{d}f} (n={len(a)}) | {p} | {_verdict(c, words)} |")

@@ -8,15 +8,22 @@ way. Every mission starts from the top view; planners never return a view alread
   stair        U = U_et + epsilon U_er, two-stage candidates (N_uni uniform, top K, N_re around each)
   exploration  the same candidates scored by U_er alone
   stair_soft, stair_semantic  beyond the paper (notebook 07): STAIR with the soft target mask, or with the
-               semantic-uncertainty term lambda U_sem (``UTILITY_VARIANTS``)
+               semantic-uncertainty term lambda U_sem (registered with those ``UtilityOptions``)
   fixed        a spiral down the hemisphere, no map feedback (the reference code's Fibonacci spiral)
   max_distance the random candidate farthest (mean squared distance) from the visited cameras
   uniform      a random view, area-uniform on the hemisphere
   ste          the explicit baseline's ROI utility on its voxel map (see explicit.py)
   replay       the views of an earlier mission, in order (for the paper's cross-validation)
+
+Each planner describes itself: what it ``reads``, the record columns of its scores (``score_columns``), how it builds
+itself from a preset (``from_preset``) and, where it ranks views, its ``utility``. It is registered once, by name,
+below (``register_planner``); a researcher's own planner needs no registration: ``path/to/file.py:ClassName`` names a
+subclass of ``Planner`` in its own file (README, "Your own planner").
 """
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,9 +37,10 @@ from .geometry import (
     fibonacci_hemisphere,
     local_views,
     random_hemisphere,
+    view_to_pose,
     view_to_position,
 )
-from .utility import FieldSnapshot, Scores, UtilityOptions, score_views
+from .utility import FieldSnapshot, Scores, UtilityOptions, render_novel_target_surface, score_views
 
 # The reference code rejects candidates within cosine distance 0.01 (about 8.1 degrees) of a visited view.
 MIN_SEPARATION = float(np.arccos(1.0 - 0.01))
@@ -74,10 +82,17 @@ class Planner:
 
     name = "planner"
     reads: str | None = None  # the kind of map it plans on ("implicit", "explicit"), or None
+    score_columns: tuple[str, ...] = ()  # the record columns of its ``Decision.scores`` (None where it scores nothing)
+    depends_on_budget = False  # its views depend on the mission's budget (a resume may not change the budget)
 
     def __init__(self, cfg: PlanConfig, rng: np.random.Generator):
         self.cfg = cfg
         self.rng = rng
+
+    @classmethod
+    def from_preset(cls, preset: Preset, rng: np.random.Generator, **options) -> "Planner":
+        """Build the planner from a preset (its ``plan`` config by default) and its registered options."""
+        return cls(preset.plan, rng, **options)
 
     def next_view(self, source, visited: np.ndarray, targets: tuple[int, ...]) -> Decision:
         raise NotImplementedError
@@ -100,6 +115,7 @@ class UtilityPlanner(Planner):
     at 0.1-0.5 rad, and the best of all; views too close to a visited one are never chosen."""
 
     reads = "implicit"
+    score_columns = ("utility", "exploitation", "exploration", "semantic_uncertainty")
 
     def __init__(self, cfg: PlanConfig, rng: np.random.Generator, options: UtilityOptions | None = None,
                  exploration_only: bool = False, exact: bool = False, name: str | None = None):
@@ -110,26 +126,39 @@ class UtilityPlanner(Planner):
         self.name = name or ("exploration" if exploration_only else "stair")
         self.intrinsics = Intrinsics.from_fov().scaled(cfg.candidate_scale)
 
+    @classmethod
+    def from_preset(cls, preset, rng, exploration_only: bool = False, **utility_options) -> "UtilityPlanner":
+        """The preset's candidates and epsilon; ``utility_options``: the ``UtilityOptions`` beside epsilon."""
+        options = UtilityOptions(epsilon=preset.plan.epsilon, **utility_options)
+        return cls(preset.plan, rng, options, exploration_only=exploration_only)
+
+    def _source(self, field, targets):
+        """What the candidates are rendered from: the field itself (``exact``) or its snapshot."""
+        return field if self.exact else FieldSnapshot.for_planning(field, self.options, targets)
+
+    def _score(self, source, views: np.ndarray, targets):
+        """The scores of ``views`` (a ``Scores``: Eqs. 12-15)."""
+        return score_views(source, views, targets, self.intrinsics, self.cfg.candidate_samples, self.options)
+
     def _value(self, scores: Scores) -> np.ndarray:
         return scores.exploration if self.exploration_only else scores.utility
 
     def utility(self, field, views, visited, targets) -> np.ndarray:
-        source = field if self.exact else FieldSnapshot(field)
-        return self._value(score_views(source, views, targets, self.intrinsics, self.cfg.candidate_samples, self.options))
+        return self._value(self._score(self._source(field, targets), views, targets))
 
     def next_view(self, field, visited, targets) -> Decision:
         cfg = self.cfg
-        source = field if self.exact else FieldSnapshot(field)
+        source = self._source(field, targets)
         uniform = fibonacci_hemisphere(cfg.n_uniform, azimuth_offset=self.rng.uniform(0, 2 * np.pi))
-        first = score_views(source, uniform, targets, self.intrinsics, cfg.candidate_samples, self.options)
+        first = self._score(source, uniform, targets)
         allowed = far_enough(uniform, visited)
         order = [i for i in np.argsort(-self._value(first), kind="stable") if allowed[i]][: cfg.top_k]
         resampled = np.concatenate(
             [local_views(uniform[i], cfg.n_resample, self.rng, *cfg.resample_angle) for i in order]
         ) if cfg.n_resample > 0 and order else np.zeros((0, 2))
-        second = score_views(source, resampled, targets, self.intrinsics, cfg.candidate_samples, self.options)
+        second = self._score(source, resampled, targets)
         candidates = np.concatenate([uniform, resampled])
-        scores = Scores.concatenate([first, second])
+        scores = type(first).concatenate([first, second])
         value = np.where(far_enough(candidates, visited), self._value(scores), -np.inf)
         best = int(np.argmax(value))
         if not np.isfinite(value[best]):
@@ -137,11 +166,74 @@ class UtilityPlanner(Planner):
         return Decision(view=candidates[best], candidates=candidates, scores=scores, chosen_index=best)
 
 
+@dataclass
+class NoveltyScores:
+    """Per-view scores of a novelty utility (``CoveragePlanner``, ``FisherPlanner``), under its record column."""
+
+    column: str
+    values: np.ndarray
+
+    @classmethod
+    def concatenate(cls, parts: list["NoveltyScores"]) -> "NoveltyScores":
+        return cls(parts[0].column, np.concatenate([p.values for p in parts]))
+
+    def columns(self, i: int) -> dict[str, float]:
+        return {self.column: float(self.values[i])}
+
+
+class CoveragePlanner(UtilityPlanner):
+    """Beyond the paper: a visibility-count utility. A view scores the target surface its rays would see (the
+    rendering weight w_i of each sample times its target probability p_T), each surface vertex weighted by how rarely
+    the measurements have seen it: nu(x) = 1 / (1 + views that saw a surface at x). The unknown is marked as the
+    options say (``UtilityOptions.unknown_occupancy``, ``unknown_target_radius``), so unseen target surface counts
+    fully. The same two-stage search as STAIR's."""
+
+    score_columns = ("coverage",)
+    power = 1  # the rendering weight's exponent
+
+    def _novelty(self, field):
+        return 1.0 / (1.0 + field.surface_views)
+
+    def _source(self, field, targets):
+        near = (tuple(targets), self.options.unknown_target_radius) if self.options.unknown_target_radius > 0 else None
+        return FieldSnapshot(field, unknown_occupancy=self.options.unknown_occupancy, unknown_targets=near,
+                             novelty=self._novelty(field))
+
+    def _score(self, source, views, targets) -> NoveltyScores:
+        per_chunk = max(1, 2**21 // (self.intrinsics.width * self.intrinsics.height * self.cfg.candidate_samples))
+        values = [render_novel_target_surface(source, self.intrinsics, [view_to_pose(*v) for v in views[i : i + per_chunk]],
+                                              self.cfg.candidate_samples, targets, self.power).sum(dim=(1, 2)).cpu().numpy()
+                  for i in range(0, len(views), per_chunk)]
+        return NoveltyScores(self.score_columns[0], np.concatenate(values) if values else np.zeros(0))
+
+    def _value(self, scores: NoveltyScores) -> np.ndarray:
+        return scores.values
+
+
+class FisherPlanner(CoveragePlanner):
+    """Beyond the paper: a Fisher-information utility (FisherRF's idea on this map). Take each lattice vertex's surface
+    as a parameter whose information grows with the rays that measured it: I(x) = rays whose surface point lies
+    nearest x. A candidate ray adds w_i^2 at its samples (the squared sensitivity of the rendered depth to the surface
+    there), so with the diagonal approximation the view's information gain is trace(I_new I^-1) =
+    sum_rays sum_i w_i^2 p_T(x_i) / (I(x_i) + 1) (the 1: one ray's worth of prior information)."""
+
+    score_columns = ("fisher",)
+    power = 2
+
+    def _novelty(self, field):
+        return 1.0 / (1.0 + field.surface_rays)
+
+
 class FixedPatternPlanner(Planner):
     """A fixed spiral: the reference code's 10-view Fibonacci spiral turned by one random azimuth,
     top-most view dropped, walked from high to low elevation. It never looks at the map."""
 
     name = "fixed"
+    depends_on_budget = True
+
+    @classmethod
+    def from_preset(cls, preset, rng) -> "FixedPatternPlanner":
+        return cls(preset.plan, rng, preset.budget)
 
     def __init__(self, cfg: PlanConfig, rng: np.random.Generator, budget: int):
         super().__init__(cfg, rng)
@@ -165,7 +257,10 @@ class MaxViewDistancePlanner(Planner):
     """The random candidate whose camera has the largest mean squared distance to the visited cameras."""
 
     name = "max_distance"
-    n_candidates = 200
+
+    def __init__(self, cfg: PlanConfig, rng: np.random.Generator, n_candidates: int = 200):
+        super().__init__(cfg, rng)
+        self.n_candidates = n_candidates  # random candidates per step
 
     def utility(self, field, views, visited, targets) -> np.ndarray:
         return mean_squared_distance(views, visited)
@@ -196,6 +291,11 @@ class STEPlanner(Planner):
 
     name = "ste"
     reads = "explicit"
+    score_columns = ("ste_utility",)
+
+    @classmethod
+    def from_preset(cls, preset, rng) -> "STEPlanner":
+        return cls(preset.plan, rng, preset.explicit.n_candidates)  # its knobs live in the explicit map's config
 
     def __init__(self, cfg: PlanConfig, rng: np.random.Generator, n_candidates: int):
         super().__init__(cfg, rng)
@@ -226,6 +326,10 @@ class ReplayPlanner(Planner):
         return Decision(view=self.views[len(visited)])
 
     @classmethod
+    def from_preset(cls, preset, rng, replay: str | Path | None = None) -> "ReplayPlanner":
+        return cls.from_file(preset.plan, rng, replay, preset.budget)
+
+    @classmethod
     def from_file(cls, cfg: PlanConfig, rng: np.random.Generator, path: str | Path, budget: int) -> "ReplayPlanner":
         """Follow the views of a mission's ``metrics.json``; it must hold at least ``budget`` of them."""
         try:
@@ -251,41 +355,104 @@ class ReplayPlanner(Planner):
 
 # The semantic-uncertainty weight lambda of stair_semantic. Measured on lite STAIR missions of scenes 1 and 3
 # (steps 2-4, 100 spread candidates, label noise none and high): across the candidates U_sem spreads 0.37-1.0
-# times as much as U_er (standard deviations 39-151 against 47-211), so lambda = epsilon gives the semantic
-# term about the exploration term's say in the choice, not more.
-SEMANTIC_WEIGHT = PlanConfig.epsilon
-# Beyond the paper: STAIR's planner with another utility, by name (UtilityOptions beside epsilon).
-UTILITY_VARIANTS = {"stair_soft": {"soft_mask": True}, "stair_semantic": {"semantic_weight": SEMANTIC_WEIGHT}}
-# The paper's planners that choose views, by name (sweeps build their variants on them, experiments.py),
-# the planners beyond the paper, and the replay planner, which follows a recorded mission's views (the
-# paper's cross-validation).
-PAPER_PLANNERS = {"stair": UtilityPlanner, "exploration": UtilityPlanner, "fixed": FixedPatternPlanner,
-                  "max_distance": MaxViewDistancePlanner, "uniform": UniformPlanner, "ste": STEPlanner}
-PLANNERS = {**PAPER_PLANNERS, **dict.fromkeys(UTILITY_VARIANTS, UtilityPlanner)}
+# times as much as U_er (standard deviations 39-151 against 47-211), so lambda = 0.2, the paper's epsilon, gives the
+# semantic term about the exploration term's say in the choice, not more.
+SEMANTIC_WEIGHT = 0.2
+
+
+@dataclass(frozen=True)
+class Registered:
+    """A planner by name: its class, the options its ``from_preset`` takes, and whether it is one of the paper's."""
+
+    cls: type[Planner]
+    options: dict
+    paper: bool
+
+
+PLANNERS: dict[str, Registered] = {}
 REPLAY = "replay"
 
 
+def register_planner(name: str, cls: type[Planner], paper: bool = False, **options) -> None:
+    """Make a planner available by name to missions, sweeps, the headroom instrument and the command line:
+    ``cls.from_preset(preset, rng, **options)`` builds it."""
+    if name in PLANNERS or name == REPLAY or ":" in name or "/" in name:
+        raise ValueError(f"the planner name {name!r} is taken or not a plain name")
+    PLANNERS[name] = Registered(cls, options, paper)
+
+
+def paper_planners() -> tuple[str, ...]:
+    """The paper's planners that choose views (a sweep's "base" variants)."""
+    return tuple(name for name, r in PLANNERS.items() if r.paper)
+
+
+register_planner("stair", UtilityPlanner, paper=True)
+register_planner("exploration", UtilityPlanner, paper=True, exploration_only=True)
+register_planner("fixed", FixedPatternPlanner, paper=True)
+register_planner("max_distance", MaxViewDistancePlanner, paper=True)
+register_planner("uniform", UniformPlanner, paper=True)
+register_planner("ste", STEPlanner, paper=True)
+# beyond the paper (notebook 07): STAIR's planner with the soft target mask, or with the semantic-uncertainty term
+register_planner("stair_soft", UtilityPlanner, soft_mask=True)
+register_planner("stair_semantic", UtilityPlanner, semantic_weight=SEMANTIC_WEIGHT)
+
+
+def planner_file_hash(name: str) -> str | None:
+    """sha256 of the file of a planner given as ``path/to/file.py:ClassName`` (None for a registered name)."""
+    if not is_planner_file(name):
+        return None
+    return hashlib.sha256(_planner_path(name).read_bytes()).hexdigest()
+
+
+def is_planner_file(name: str) -> bool:
+    """Whether a planner name is ``path/to/file.py:ClassName``: a researcher's own planner in its own file."""
+    path, _, cls = name.rpartition(":")
+    return path.endswith(".py") and cls.isidentifier()
+
+
+def _planner_path(name: str) -> Path:
+    path = Path(name.rpartition(":")[0])
+    if not path.is_file():
+        raise ValueError(f"planner {name!r}: the file {path} does not exist (or is not a regular file)")
+    return path
+
+
+def _class_from_file(name: str) -> type[Planner]:
+    """The class ``ClassName`` of ``path/to/file.py:ClassName``, loaded from the file; it must subclass Planner."""
+    path, cls_name = _planner_path(name), name.rpartition(":")[2]
+    module_name = f"stair_lite_user_planner_{hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]}"
+    spec = importlib.util.spec_from_file_location(module_name, path)
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)
+    except Exception as err:
+        raise ValueError(f"planner {name!r}: loading {path} failed ({type(err).__name__}: {err})") from None
+    cls = getattr(module, cls_name, None)
+    if not (isinstance(cls, type) and issubclass(cls, Planner)):
+        raise ValueError(f"planner {name!r}: {path} defines no subclass of stair_lite.planners.Planner named {cls_name}")
+    return cls
+
+
 def planner_class(name: str, replay: str | Path | None = None) -> type[Planner]:
-    """The class behind a planner name; a clear error for an unknown one, or for a replay file given
-    to another planner than ``replay`` (or missing for it)."""
-    if name != REPLAY and name not in PLANNERS:
-        raise ValueError(f"unknown planner {name!r}; choose one of {', '.join((*PLANNERS, REPLAY))}")
+    """The class behind a planner name (or ``path/to/file.py:ClassName``); a clear error for an unknown one, or for a
+    replay file given to another planner than ``replay`` (or missing for it)."""
     if (name == REPLAY) != (replay is not None):
         raise ValueError("planner 'replay' needs a replay file, and a replay file needs planner 'replay'")
-    return ReplayPlanner if name == REPLAY else PLANNERS[name]
+    if name == REPLAY:
+        return ReplayPlanner
+    if is_planner_file(name):
+        return _class_from_file(name)
+    if name not in PLANNERS:
+        raise ValueError(f"unknown planner {name!r}; choose one of {', '.join((*PLANNERS, REPLAY))}, or give "
+                         "path/to/file.py:ClassName")
+    return PLANNERS[name].cls
 
 
 def make_planner(name: str, preset: Preset, seed: int, replay: str | Path | None = None) -> Planner:
-    """Build a planner by name from a preset (its plan config, budget and STE candidate count), with its
-    own seeded random generator; ``replay``: the metrics.json whose views the ``replay`` planner follows."""
-    cls, cfg, rng = planner_class(name, replay), preset.plan, np.random.default_rng(seed)
-    if cls is UtilityPlanner:
-        options = UtilityOptions(epsilon=cfg.epsilon, **UTILITY_VARIANTS.get(name, {}))
-        return UtilityPlanner(cfg, rng, options, exploration_only=name == "exploration", name=name)
-    if cls is FixedPatternPlanner:
-        return FixedPatternPlanner(cfg, rng, preset.budget)
-    if cls is STEPlanner:
-        return STEPlanner(cfg, rng, preset.explicit.n_candidates)
-    if cls is ReplayPlanner:
-        return ReplayPlanner.from_file(cfg, rng, replay, preset.budget)
-    return cls(cfg, rng)
+    """Build a planner by name (or ``path/to/file.py:ClassName``) from a preset, with its own seeded random generator;
+    ``replay``: the metrics.json whose views the ``replay`` planner follows."""
+    cls, rng = planner_class(name, replay), np.random.default_rng(seed)
+    options = PLANNERS[name].options if name in PLANNERS else {"replay": replay} if name == REPLAY else {}
+    planner = cls.from_preset(preset, rng, **options)
+    planner.name = name
+    return planner

@@ -9,11 +9,6 @@ from .classes import CLASS_COLOURS, CLASS_NAMES, colourise_labels
 from .geometry import HEMISPHERE_RADIUS, view_to_position
 from .lattice import CUBE_BOUND
 
-# axis labels of the per-step metrics of a mission (evaluation.py), for curves and tables
-METRIC_LABELS = {"psnr": "target-only PSNR [dB]", "psnr_clean": "target-only PSNR, clean protocol [dB]",
-                 "f1": "target mesh F1 (1 cm)", "f1_2cm": "target mesh F1 (2 cm)", "f1_5cm": "target mesh F1 (5 cm)",
-                 "chamfer": "target mesh chamfer distance [m]"}
-
 
 def show_measurement(m, title: str = "", axes=None):
     """rgb, depth and labels of a Measurement side by side."""

@@ -21,6 +21,7 @@ import numpy as np
 import trimesh
 
 from .classes import BACKGROUND, CLASS_NAMES, class_id, target_ids
+from .config import SEED_LIMIT
 from .lattice import CUBE_BOUND
 from .meshes import class_mesh
 
@@ -323,7 +324,7 @@ def spec_from_json(data: dict, source: str = "scene") -> SceneSpec:
                                        and all(0.0 <= _number(c, where, "'colour'") <= 1.0 for c in colour)):
             raise ValueError(f"{where}: 'colour' must be three numbers in [0, 1], got {colour!r}")
         seed = o.get("seed", 0)
-        if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+        if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < SEED_LIMIT:
             raise ValueError(f"{where}: 'seed' must be an integer in [0, 2^32), got {seed!r}")
         try:
             cls = class_id(_require(o, "class", where))

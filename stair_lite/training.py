@@ -204,7 +204,10 @@ class Trainer:
         """Store a new measurement; the next ``update`` trains on it."""
         self.buffer.add(m)
         points = torch.as_tensor(back_project(m)[0], dtype=torch.float32, device=self.field.device)
-        self.measured_surface[self.field.lattice.nearest_index(points)] = True
+        nearest = self.field.lattice.nearest_index(points)
+        self.measured_surface[nearest] = True
+        self.field.surface_rays.index_add_(0, nearest, torch.ones_like(nearest, dtype=self.field.surface_rays.dtype))
+        self.field.surface_views[torch.unique(nearest)] += 1
         if self.field.cfg.reached_only:  # the cells this measurement's rays reached (FieldConfig.reached_only)
             self.field.reached |= reached_vertices(self.field.lattice, *measured_rays(m, self.field.device),
                                                    self.render_cfg.near)

@@ -49,6 +49,11 @@ class UtilityOptions:
     ``mask_dilation``: grow the target mask by this many pixels (the reference uses 2 at 400 px).
     ``soft_mask``: weigh each ray by its rendered target probability p_T instead of the argmax test.
     ``semantic_weight``: lambda, the weight of the semantic-uncertainty term U_sem (0: the paper's utility).
+    ``unknown_occupancy``: in planning renders, the prior occupancy of lattice vertices no measured ray reached (the
+    field itself keeps them empty, so metrics and meshes never see it); 0: unknown space carries no entropy.
+    ``unknown_target_radius``: unknown vertices within this distance [m] of a target surface render with that
+    target's class, so that the unseen side of a target counts as exploitation (0: off).
+    ``min_ray_opacity``: rays whose accumulated opacity is below this carry no uncertainty (the reference code: 0.01).
     """
 
     epsilon: float = PlanConfig.epsilon
@@ -57,11 +62,20 @@ class UtilityOptions:
     mask_dilation: int = 0
     soft_mask: bool = False
     semantic_weight: float = 0.0
+    unknown_occupancy: float = 0.0
+    unknown_target_radius: float = 0.0
+    min_ray_opacity: float = 0.0
 
     def __post_init__(self):
         check_epsilon(self.epsilon)
         if not np.isfinite(self.semantic_weight) or self.semantic_weight < 0:
             raise ValueError(f"semantic_weight must be a finite number >= 0, got {self.semantic_weight!r}")
+        if not 0.0 <= self.unknown_occupancy < 1.0:
+            raise ValueError(f"unknown_occupancy must be a probability in [0, 1), got {self.unknown_occupancy!r}")
+        if not (np.isfinite(self.unknown_target_radius) and self.unknown_target_radius >= 0):
+            raise ValueError(f"unknown_target_radius must be a finite distance >= 0, got {self.unknown_target_radius!r}")
+        if not 0.0 <= self.min_ray_opacity < 1.0:
+            raise ValueError(f"min_ray_opacity must be in [0, 1), got {self.min_ray_opacity!r}")
         if self.mask_dilation < 0:
             raise ValueError(f"mask_dilation must be >= 0 pixels, got {self.mask_dilation!r}")
 
@@ -72,12 +86,29 @@ class FieldSnapshot:
     order. ``lookup`` reads the nearest vertex, or interpolates trilinearly with ``trilinear=True``
     (closer to the field, about 3x slower)."""
 
-    def __init__(self, field, resolution: int | None = None, trilinear: bool = False):
+    def __init__(self, field, resolution: int | None = None, trilinear: bool = False, unknown_occupancy: float = 0.0,
+                 unknown_targets: tuple[tuple[int, ...], float] | None = None, novelty: torch.Tensor | None = None):
         self.lattice = Lattice(resolution or field.lattice.resolution, field.lattice.bound)
         self.device, self.trilinear = field.device, trilinear
         q = field.query(self.lattice.points(field.device))
-        # one table per vertex: occupancy, entropy, class probabilities
-        self.table = torch.cat([q["occ"][:, None], point_entropy(q["occ"])[:, None], q["sem"]], dim=1)
+        occ, sem = q["occ"], q["sem"]
+        if (unknown_occupancy > 0 or unknown_targets) and field.cfg.reached_only:
+            if self.lattice.resolution != field.lattice.resolution:
+                raise ValueError("a snapshot that marks the unknown needs the field's own lattice resolution")
+            unknown = ~field.reached
+            occ = torch.where(unknown, torch.full_like(occ, unknown_occupancy), occ)
+            if unknown_targets:
+                sem = _unknown_near_targets_as_targets(self.lattice, occ, sem, unknown, *unknown_targets)
+        # one table per vertex: occupancy, entropy, class probabilities (and a novelty per vertex, for the coverage and
+        # Fisher utilities: how little the surface there has been observed)
+        columns = [occ[:, None], point_entropy(occ)[:, None], sem] + ([novelty[:, None]] if novelty is not None else [])
+        self.table = torch.cat(columns, dim=1)
+
+    @classmethod
+    def for_planning(cls, field, options: "UtilityOptions", targets: tuple[int, ...]) -> "FieldSnapshot":
+        """The snapshot a planner with ``options`` reads (the unknown marked as the options say)."""
+        near = (tuple(targets), options.unknown_target_radius) if options.unknown_target_radius > 0 else None
+        return cls(field, unknown_occupancy=options.unknown_occupancy, unknown_targets=near)
 
     def lookup(self, points: torch.Tensor) -> torch.Tensor:
         """(..., 2 + P) values at each point: of the nearest lattice vertex, or trilinearly interpolated."""
@@ -96,11 +127,56 @@ class FieldSnapshot:
         return self.table.index_select(0, index.reshape(-1)).view(*index.shape, -1)
 
 
+def _unknown_near_targets_as_targets(lattice: Lattice, occ: torch.Tensor, sem: torch.Tensor, unknown: torch.Tensor,
+                                     targets: tuple[int, ...], radius: float) -> torch.Tensor:
+    """Class probabilities where unknown vertices within ``radius`` of a target surface vertex (occupied, a target
+    class by argmax) take the class of the nearest such vertex: the unseen part of a target may continue there."""
+    from scipy.ndimage import distance_transform_edt
+
+    r = lattice.resolution
+    surface = (occ > 0.5) & torch.isin(sem.argmax(dim=1), torch.as_tensor(targets, device=sem.device)) & ~unknown
+    if not bool(surface.any()):
+        return sem
+    distance, nearest = distance_transform_edt(~surface.view(r, r, r).cpu().numpy(), return_indices=True)
+    near = torch.as_tensor(distance.reshape(-1) * lattice.spacing <= radius, device=sem.device) & unknown
+    source = torch.as_tensor(np.ravel_multi_index(nearest.reshape(3, -1), (r, r, r)), device=sem.device)
+    classes = sem[source].argmax(dim=1)
+    return torch.where(near[:, None], F.one_hot(classes, sem.shape[1]).to(sem.dtype), sem)
+
+
 def exact_samples(field, points: torch.Tensor) -> torch.Tensor:
     """The same (..., 2 + P) values computed exactly by the field at each point (no snapshot)."""
     q = field.query(points.reshape(-1, 3))
     values = torch.cat([q["occ"][:, None], point_entropy(q["occ"])[:, None], q["sem"]], dim=1)
     return values.view(*points.shape[:-1], -1)
+
+
+def _samples_on_rays(source, intrinsics: Intrinsics, poses: list[np.ndarray], n_samples: int,
+                     near: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """The snapshot's (or the exact field's) values at ``n_samples`` samples inside the cube along every pixel ray of
+    every pose, (rays, samples, columns), and which rays meet the cube."""
+    device, bound = source.device, source.lattice.bound
+    rays = [pixel_rays(intrinsics, p) for p in poses]
+    origins = torch.as_tensor(np.concatenate([o for o, _ in rays]), dtype=torch.float32, device=device)
+    dirs = torch.as_tensor(np.concatenate([d for _, d in rays]), dtype=torch.float32, device=device)
+    t_near, t_far, hit = ray_box_intersection(origins, dirs, bound, near)
+    t = sample_along_rays(t_near, torch.where(hit, t_far, t_near + 1e-3), n_samples)
+    if isinstance(source, FieldSnapshot):
+        return source.lookup_on_rays(origins, dirs, t), hit
+    return exact_samples(source, origins[:, None, :] + t[..., None] * dirs[:, None, :]), hit
+
+
+@torch.no_grad()
+def render_novel_target_surface(source: "FieldSnapshot", intrinsics: Intrinsics, poses: list[np.ndarray], n_samples: int,
+                                targets: tuple[int, ...], power: int = 1, near: float = 0.2) -> torch.Tensor:
+    """Per ray (V, H, W): sum_i w_i^power p_T(x_i) nu(x_i), the expected target surface a ray would see, weighted by
+    the snapshot's novelty column nu (``FieldSnapshot(novelty=...)``): how little that surface has been observed."""
+    values, hit = _samples_on_rays(source, intrinsics, poses, n_samples, near)
+    occ = values[..., 0] * hit[:, None]
+    weights, _ = compositing_weights(occ)
+    p_target = values[..., [2 + t for t in targets]].sum(dim=-1)
+    per_ray = (weights**power * p_target * values[..., 2 + NUM_CLASSES]).sum(dim=1)
+    return per_ray.view(len(poses), intrinsics.height, intrinsics.width)
 
 
 @torch.no_grad()
@@ -111,29 +187,22 @@ def render_uncertainty(
     n_samples: int,
     near: float = 0.2,
     delete_background: bool = False,
+    min_ray_opacity: float = 0.0,
 ) -> dict[str, torch.Tensor]:
     """Render, for each pose, per-ray entropy H_ray (V, H, W), class probabilities S (V, H, W, P) and the
     entropy of S, H_sem (V, H, W).
 
     ``source`` is a FieldSnapshot (fast) or a SemanticField (exact: the field runs at every sample).
     """
-    snapshot = isinstance(source, FieldSnapshot)
-    device, bound = source.device, source.lattice.bound
-    rays = [pixel_rays(intrinsics, p) for p in poses]
-    origins = torch.as_tensor(np.concatenate([o for o, _ in rays]), dtype=torch.float32, device=device)
-    dirs = torch.as_tensor(np.concatenate([d for _, d in rays]), dtype=torch.float32, device=device)
-    t_near, t_far, hit = ray_box_intersection(origins, dirs, bound, near)
-    t = sample_along_rays(t_near, torch.where(hit, t_far, t_near + 1e-3), n_samples)
-    if snapshot:
-        values = source.lookup_on_rays(origins, dirs, t)
-    else:
-        values = exact_samples(source, origins[:, None, :] + t[..., None] * dirs[:, None, :])
-    occ, entropy, probs = values[..., 0] * hit[:, None], values[..., 1] * hit[:, None], values[..., 2:]
+    values, hit = _samples_on_rays(source, intrinsics, poses, n_samples, near)
+    occ, entropy, probs = values[..., 0] * hit[:, None], values[..., 1] * hit[:, None], values[..., 2 : 2 + NUM_CLASSES]
     if delete_background:
         empty = probs.argmax(dim=-1) == BACKGROUND
         occ, entropy = occ.masked_fill(empty, 0.0), entropy.masked_fill(empty, 0.0)
     weights, transmittance = compositing_weights(occ)
     h_ray = (transmittance * entropy).sum(dim=1)  # Eq. 11
+    if min_ray_opacity > 0:
+        h_ray = h_ray * (weights.sum(dim=1) > min_ray_opacity)
     sem = torch.bmm(weights[:, None, :], probs).squeeze(1)  # sum_i w_i s_i, one small product per ray
     sem[:, BACKGROUND] += 1.0 - weights.sum(dim=1)
     v, h, w = len(poses), intrinsics.height, intrinsics.width
@@ -198,7 +267,8 @@ def score_views(
     u_er, u_et, u_sem = [], [], []
     for start in range(0, len(views), chunk_views):
         poses = [view_to_pose(el, az) for el, az in views[start : start + chunk_views]]
-        out = render_uncertainty(source, intrinsics, poses, n_samples, delete_background=options.delete_background)
+        out = render_uncertainty(source, intrinsics, poses, n_samples, delete_background=options.delete_background,
+                                 min_ray_opacity=options.min_ray_opacity)
         h = out["h_ray"]
         if options.saturating_rays:
             h = 1.0 - torch.exp(-h / np.log(2.0))

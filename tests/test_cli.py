@@ -22,8 +22,8 @@ def test_render_of_a_scene_file_writes_into_the_output_folder(tmp_path, capsys):
     (["sweep", "--planners", "stair_epsinf"], "planner variant 'stair_epsinf': epsilon must be a number from 0"),
     (["sweep", "--workers", "0"], "--workers must be at least 1, got 0"),
     (["sweep", "--workers", "-1"], "--workers must be at least 1, got -1"),
-    (["run", "--seed", str(10**20)], f"seed must be a whole number from 0 to 2**32 - 1, got {10**20}"),
-    (["sweep", "--first-seed", str(2**32)], f"--first-seed must be from 0 to 2**32 - --seeds, got {2**32}"),
+    (["run", "--seed", str(10**20)], f"seed must be a whole number from 0 to {2**32 - 1}, got {10**20}"),
+    (["sweep", "--first-seed", str(2**32)], f"--first-seed must be from 0 to {2**32} - --seeds, got {2**32}"),
 ])
 def test_bad_settings_are_refused_in_one_line(tmp_path, capsys, argv, message):
     assert main(argv + ["--out", str(tmp_path / "out"), "--preset", "smoke"]) == 2

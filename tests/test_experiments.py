@@ -68,7 +68,7 @@ def test_results_folder_of_another_configuration_is_refused(tmp_path):
         run_sweep(spec(variants=("uniform",), label_noise="high"), tmp_path, progress=False)
     sweep_file = tmp_path / "sweep.json"  # a folder written before noisy labels existed holds exact ones
     stored = json.loads(sweep_file.read_text())
-    del stored["label_noise"]
+    del stored["label_noise"], stored["format"]
     sweep_file.write_text(json.dumps(stored))
     run_sweep(spec(variants=("uniform",)), tmp_path, progress=False)
     with pytest.raises(ValueError, match="label noise 'none'"):

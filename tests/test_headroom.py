@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from stair_lite.headroom import METRICS, UTILITIES, Headroom, measure_headroom
+from stair_lite.headroom import Headroom, measure_headroom, noise_ceiling, ranking_planners
 from stair_lite.mission import Mission, MissionConfig
 
 
@@ -17,19 +17,20 @@ def test_the_stair_pick_realises_what_the_mission_measures_next(headroom):
     longer = Mission(MissionConfig(scene="scene1", planner="stair", seed=0, preset="smoke", budget=3)).run()
     (pick,) = [r for r in headroom.rows if r["kind"] == "stair"]
     assert np.allclose([pick["elevation_deg"], pick["azimuth_deg"]], longer[-1]["view_deg"])
-    for metric in METRICS:
+    for metric in headroom.metrics:
         assert pick[metric] == pytest.approx(longer[-1][metric], abs=1e-9), metric
         assert headroom.before[metric] == pytest.approx(longer[-2][metric], abs=1e-9), metric
 
 
 def test_rows_gains_and_correlations(headroom, tmp_path):
     spread = [r for r in headroom.rows if r["kind"] == "spread"]
-    assert 2 <= len(spread) <= 5 and [r["kind"] for r in headroom.rows[len(spread):]] == list(UTILITIES)
+    assert 2 <= len(spread) <= 5 and [r["kind"] for r in headroom.rows[len(spread):]] == list(headroom.utilities)
+    assert headroom.utilities == ranking_planners() and {"stair", "exploration", "max_distance"} <= set(headroom.utilities)
     for r in headroom.rows:
         assert r["gain_psnr"] == pytest.approx(r["psnr"] - headroom.before["psnr"])
         assert r["gain_chamfer"] == pytest.approx(headroom.before["chamfer"] - r["chamfer"])  # a gain is a reduction
-    for u in UTILITIES:
-        for m in METRICS:
+    for u in headroom.utilities:
+        for m in headroom.metrics:
             rho = headroom.correlations[u][m]
             assert rho is None or -1.0 <= rho <= 1.0
     assert 0.0 <= headroom.pick_percentile("stair", "psnr") <= 1.0
@@ -40,3 +41,11 @@ def test_rows_gains_and_correlations(headroom, tmp_path):
 def test_bad_arguments_are_named():
     with pytest.raises(ValueError, match="at least 1 view before, 2 candidates"):
         measure_headroom("scene1", after=0, n_candidates=5, preset="smoke")
+
+
+def test_the_noise_ceiling_is_perfect_for_identical_streams_and_lower_for_noisy_ones():
+    gains = np.tile(np.arange(8.0), (3, 1))
+    assert noise_ceiling(gains) == {"spearman": 1.0, "pick_percentile": 7 / 8}  # the oracle's pick beats 7 of 8
+    noisy = gains + np.random.default_rng(0).normal(0, 3.0, gains.shape)
+    ceiling = noise_ceiling(noisy)
+    assert ceiling["spearman"] < 0.95 and ceiling["pick_percentile"] <= 7 / 8

@@ -7,13 +7,14 @@ import pytest
 
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
-from stair_lite.mission import FolderInUseError, Mission, MissionConfig, ResultsFolderError
+from stair_lite.mission import Mission, MissionConfig
+from stair_lite.results_folder import FORMAT, FolderInUseError, ResultsFolderError
 
 TINY = get_preset("smoke")
 
 
 def run(tmp_path, name="m", budget=3, planner="stair", on_step=None, preset=TINY, **kw):
-    mission = Mission(MissionConfig(planner=planner, budget=budget), out=tmp_path / name, preset=preset, **kw)
+    mission = Mission(MissionConfig(preset="smoke", planner=planner, budget=budget), out=tmp_path / name, preset=preset, **kw)
     return mission.run(on_step=on_step)
 
 
@@ -62,11 +63,11 @@ def test_interrupted_ste_mission_resumes_exactly(tmp_path):
         run(tmp_path, "cut", budget=4, planner="ste", on_step=stop_after_two)
     resumed = run(tmp_path, "cut", budget=4, planner="ste", resume=True)
     assert strip_times(resumed) == strip_times(full)
-    assert all(r["ste_utility"] is not None and r["utility"] is None for r in full[1:])  # STE's score has its own column
+    assert all(r["ste_utility"] is not None and "utility" not in r for r in full[1:])  # a record holds its planner's own scores
 
 
 def test_a_mission_is_built_whole_and_stepped(tmp_path):
-    mission = Mission(MissionConfig(planner="stair", budget=2), out=tmp_path / "m", preset=TINY)
+    mission = Mission(MissionConfig(preset="smoke", planner="stair", budget=2), out=tmp_path / "m", preset=TINY)
     assert mission.map is mission.planning_map and set(mission.maps) == {"implicit"}
     assert mission.evaluator.targets == mission.targets and mission.records == []
     first = mission.step()
@@ -74,15 +75,15 @@ def test_a_mission_is_built_whole_and_stepped(tmp_path):
     assert mission.step()["step"] == 2 and mission.finished
     with pytest.raises(RuntimeError, match="all 2 measurements"):
         mission.step()
-    ste = Mission(MissionConfig(planner="ste", budget=1), preset=TINY)
+    ste = Mission(MissionConfig(preset="smoke", planner="ste", budget=1), preset=TINY)
     assert set(ste.maps) == {"explicit"} and ste.config.mapper == "explicit"  # an STE mission builds no field
-    replay = Mission(MissionConfig(planner="replay", replay=str(tmp_path / "m" / "metrics.json"), mapper="explicit",
+    replay = Mission(MissionConfig(preset="smoke", planner="replay", replay=str(tmp_path / "m" / "metrics.json"), mapper="explicit",
                                    budget=2), preset=TINY)
     assert set(replay.maps) == {"explicit"} and replay.planning_map is None
 
 
 def test_the_stored_header_records_what_the_mission_ran_with(tmp_path):
-    Mission(MissionConfig(planner="stair", epsilon=0.5, budget=1), out=tmp_path, preset=TINY).run()
+    Mission(MissionConfig(preset="smoke", planner="stair", epsilon=0.5, budget=1), out=tmp_path, preset=TINY).run()
     header = json.loads((tmp_path / "metrics.json").read_text())
     assert header["config"]["epsilon"] == header["preset"]["plan"]["epsilon"] == 0.5
     assert header["config"]["budget"] == header["preset"]["budget"] == 1
@@ -109,44 +110,45 @@ def test_results_folder_is_protected(tmp_path):
     ({"label_noise": "loud"}, "unknown label noise level 'loud'")])
 def test_bad_mission_settings_are_named(kw, match):
     with pytest.raises(ValueError, match=match):
-        Mission(MissionConfig(**kw), preset=TINY)
+        Mission(MissionConfig(preset="smoke", **kw), preset=TINY)
 
 
 def test_targets_must_be_in_the_scene():
     with pytest.raises(ValueError, match="do not occur in scene"):
-        Mission(MissionConfig(scene="scene2", targets=("car",)), preset=TINY)
+        Mission(MissionConfig(preset="smoke", scene="scene2", targets=("car",)), preset=TINY)
 
 
 def test_a_mission_with_noisy_labels_trains_on_them_resumes_exactly_and_is_scored_on_exact_ones(tmp_path):
-    full = Mission(MissionConfig(planner="stair", budget=3, label_noise="high"), out=tmp_path / "full", preset=TINY)
+    full = Mission(MissionConfig(preset="smoke", planner="stair", budget=3, label_noise="high"), out=tmp_path / "full", preset=TINY)
     records = full.run()
-    exact_mission = Mission(MissionConfig(planner="stair", budget=3), out=tmp_path / "exact", preset=TINY)
+    exact_mission = Mission(MissionConfig(preset="smoke", planner="stair", budget=3), out=tmp_path / "exact", preset=TINY)
     exact = exact_mission.run()
     assert strip_times(records) != strip_times(exact)  # the labels changed what was learnt
     assert all(np.array_equal(a, b) for a, b in zip(full.evaluator.gt_images, exact_mission.evaluator.gt_images))
     stored = json.loads((tmp_path / "full" / "metrics.json").read_text())
     assert stored["config"]["label_noise"] == "high"
-    assert "label_noise" not in json.loads((tmp_path / "exact" / "metrics.json").read_text())["config"]  # as before
+    exact_header = json.loads((tmp_path / "exact" / "metrics.json").read_text())
+    assert exact_header["config"]["label_noise"] == "none" and exact_header["format"] == FORMAT
 
     def stop_after_two(record):
         if record["step"] == 2:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        Mission(MissionConfig(planner="stair", budget=3, label_noise="high"), out=tmp_path / "cut", preset=TINY).run(
+        Mission(MissionConfig(preset="smoke", planner="stair", budget=3, label_noise="high"), out=tmp_path / "cut", preset=TINY).run(
             on_step=stop_after_two)
-    resumed = Mission(MissionConfig(planner="stair", budget=3, label_noise="high"), out=tmp_path / "cut", preset=TINY,
+    resumed = Mission(MissionConfig(preset="smoke", planner="stair", budget=3, label_noise="high"), out=tmp_path / "cut", preset=TINY,
                       resume=True).run()
     assert strip_times(resumed) == strip_times(records)
     with pytest.raises(ResultsFolderError, match=r"different mission \(config.label_noise: 'high' there, 'low' now\)"):
-        Mission(MissionConfig(planner="stair", budget=3, label_noise="low"), out=tmp_path / "cut", preset=TINY, resume=True)
+        Mission(MissionConfig(preset="smoke", planner="stair", budget=3, label_noise="low"), out=tmp_path / "cut", preset=TINY, resume=True)
     with pytest.raises(ResultsFolderError, match=r"different mission \(config.label_noise: 'high' there, 'none' now\)"):
-        Mission(MissionConfig(planner="stair", budget=3), out=tmp_path / "cut", preset=TINY, resume=True)
+        Mission(MissionConfig(preset="smoke", planner="stair", budget=3), out=tmp_path / "cut", preset=TINY, resume=True)
 
 
 @pytest.mark.parametrize("planner", ["stair_soft", "stair_semantic"])
 def test_the_planners_beyond_the_paper_complete_a_noisy_mission(tmp_path, planner):
-    mission = Mission(MissionConfig(planner=planner, budget=2, label_noise="medium"), out=tmp_path, preset=TINY)
+    mission = Mission(MissionConfig(preset="smoke", planner=planner, budget=2, label_noise="medium"), out=tmp_path, preset=TINY)
     records = mission.run()
     assert len(records) == 2 and records[1]["semantic_uncertainty"] >= 0
 
@@ -158,9 +160,9 @@ def test_every_planner_completes_a_mission(tmp_path, planner):
 
 
 def test_ste_mission_and_the_cross_validation_replay(tmp_path):
-    ste = Mission(MissionConfig(planner="ste", mapper="explicit", budget=3), out=tmp_path / "ste", preset=TINY).run()
+    ste = Mission(MissionConfig(preset="smoke", planner="ste", mapper="explicit", budget=3), out=tmp_path / "ste", preset=TINY).run()
     assert ste[1]["ste_utility"] is not None and ste[0]["loss"] is None  # the explicit map is not trained
-    implicit = Mission(MissionConfig(planner="replay", replay=str(tmp_path / "ste" / "metrics.json"), budget=3),
+    implicit = Mission(MissionConfig(preset="smoke", planner="replay", replay=str(tmp_path / "ste" / "metrics.json"), budget=3),
                        out=tmp_path / "ste_implicit", preset=TINY).run()
     assert [r["view_rad"] for r in implicit] == [r["view_rad"] for r in ste]  # STE's views, the field's map
     assert implicit[-1]["loss"] is not None
@@ -171,7 +173,7 @@ def test_replay_needs_a_file_and_enough_views(tmp_path):
         MissionConfig(planner="replay")
     run(tmp_path, "short", budget=2, planner="uniform")
     with pytest.raises(ValueError, match="fewer than the budget"):
-        Mission(MissionConfig(planner="replay", replay=str(tmp_path / "short" / "metrics.json"), budget=3), preset=TINY)
+        Mission(MissionConfig(preset="smoke", planner="replay", replay=str(tmp_path / "short" / "metrics.json"), budget=3), preset=TINY)
 
 
 @pytest.mark.parametrize("device,match", [("tpu", "unknown device|only 'cpu' and 'cuda'"), ("not a device", "unknown device")])
@@ -201,7 +203,7 @@ def test_overwrite_keeps_the_old_results_until_the_new_mission_saves(tmp_path, m
     replay = tmp_path / "short.json"
     replay.write_text(json.dumps({"steps": old[:1]}))
     with pytest.raises(ValueError, match="fewer than the budget 3"):
-        Mission(MissionConfig(planner="replay", replay=str(replay), budget=3), out=tmp_path / "x", preset=TINY,
+        Mission(MissionConfig(preset="smoke", planner="replay", replay=str(replay), budget=3), out=tmp_path / "x", preset=TINY,
                 overwrite=True)
 
     def interrupted(*args, **kwargs):
@@ -218,7 +220,7 @@ def test_overwrite_keeps_the_old_results_until_the_new_mission_saves(tmp_path, m
 
 def test_an_interrupt_between_checkpoint_and_records_loses_no_step(tmp_path, monkeypatch):
     full = run(tmp_path, "full", budget=3)
-    from stair_lite import mission as mission_module
+    from stair_lite import results_folder as mission_module
 
     writes = []
     original = mission_module.write_json_atomically
@@ -230,7 +232,7 @@ def test_an_interrupt_between_checkpoint_and_records_loses_no_step(tmp_path, mon
         original(path, data)
 
     monkeypatch.setattr(mission_module, "write_json_atomically", interrupted_on_step_two)
-    mission = Mission(MissionConfig(planner="stair", budget=3), out=tmp_path / "cut", preset=TINY)
+    mission = Mission(MissionConfig(preset="smoke", planner="stair", budget=3), out=tmp_path / "cut", preset=TINY)
     with pytest.raises(KeyboardInterrupt):
         mission.run()
     assert mission.saved_steps == 2 and len(json.loads((tmp_path / "cut" / "metrics.json").read_text())["steps"]) == 1
@@ -240,10 +242,10 @@ def test_an_interrupt_between_checkpoint_and_records_loses_no_step(tmp_path, mon
 
 
 def test_a_folder_in_use_is_refused_until_its_mission_ends(tmp_path):
-    first = Mission(MissionConfig(planner="uniform", budget=2), out=tmp_path / "x", preset=TINY)
+    first = Mission(MissionConfig(preset="smoke", planner="uniform", budget=2), out=tmp_path / "x", preset=TINY)
     first.step()
     with pytest.raises(FolderInUseError, match=rf"in use by another mission \(process {os.getpid()}\)"):
-        Mission(MissionConfig(planner="uniform", budget=2), out=tmp_path / "x", preset=TINY, resume=True)
+        Mission(MissionConfig(preset="smoke", planner="uniform", budget=2), out=tmp_path / "x", preset=TINY, resume=True)
     first.step()  # the last step: the mission releases the folder
     assert len(run(tmp_path, "x", budget=3, planner="uniform", resume=True)) == 3
     (tmp_path / "file").write_text("")
@@ -263,10 +265,10 @@ def test_a_fixed_pattern_mission_is_not_resumed_with_another_budget(tmp_path):
 def test_a_mission_on_an_edited_scene_file_is_not_resumed(tmp_path):
     scene = tmp_path / "mine.json"
     scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.0, 0.0]}]}))
-    Mission(MissionConfig(scene=str(scene), planner="uniform", budget=1), out=tmp_path / "m", preset=TINY).run()
+    Mission(MissionConfig(preset="smoke", scene=str(scene), planner="uniform", budget=1), out=tmp_path / "m", preset=TINY).run()
     scene.write_text(json.dumps({"targets": ["car"], "objects": [{"class": "car", "position": [0.3, 0.0]}]}))
     with pytest.raises(ResultsFolderError, match="mine.json has changed since"):
-        Mission(MissionConfig(scene=str(scene), planner="uniform", budget=2), out=tmp_path / "m", preset=TINY,
+        Mission(MissionConfig(preset="smoke", scene=str(scene), planner="uniform", budget=2), out=tmp_path / "m", preset=TINY,
                 resume=True)
 
 
@@ -274,7 +276,7 @@ def test_a_full_disk_is_named_and_the_saved_steps_resume(tmp_path, monkeypatch):
     """On a full disk torch.save fails with "unexpected pos 64 vs 0": the error must name the file and the space
     left, leave no partial file behind, and the steps saved before must resume."""
     run(tmp_path, "x", budget=1, planner="uniform")
-    from stair_lite import mission as mission_module
+    from stair_lite import results_folder as mission_module
 
     def disk_full(state, path):
         open(path, "wb").close()
@@ -290,7 +292,7 @@ def test_a_full_disk_is_named_and_the_saved_steps_resume(tmp_path, monkeypatch):
 
 
 def test_scores_that_are_not_finite_are_written_as_json_null(tmp_path):
-    from stair_lite.mission import write_json_atomically
+    from stair_lite.results_folder import write_json_atomically
 
     def refuse(constant):
         raise ValueError(f"{constant} is not JSON")
@@ -299,3 +301,17 @@ def test_scores_that_are_not_finite_are_written_as_json_null(tmp_path):
                                                            "view_rad": (0.1, float("-inf"))}]})
     stored = json.loads((tmp_path / "m.json").read_text(), parse_constant=refuse)
     assert stored == {"steps": [{"psnr": None, "psnr_clean": None, "f1": 0.5, "view_rad": [0.1, None]}]}
+
+
+def test_a_mission_stored_in_the_first_format_resumes(tmp_path):
+    """Format 1 wrote no version and left out the label noise of an exact mission: ``upgrade_header`` reads it, and the
+    resumed mission writes the current format."""
+    full = run(tmp_path, "full", budget=3, planner="uniform")
+    run(tmp_path, "old", budget=2, planner="uniform")
+    path = tmp_path / "old" / "metrics.json"
+    stored = json.loads(path.read_text())
+    del stored["format"], stored["config"]["label_noise"]
+    path.write_text(json.dumps(stored))
+    resumed = run(tmp_path, "old", budget=3, planner="uniform", resume=True)
+    assert strip_times(resumed) == strip_times(full)
+    assert json.loads(path.read_text())["format"] == FORMAT

@@ -395,6 +395,9 @@ register_planner("ste", STEPlanner, paper=True)
 # beyond the paper (notebook 07): STAIR's planner with the soft target mask, or with the semantic-uncertainty term
 register_planner("stair_soft", UtilityPlanner, soft_mask=True)
 register_planner("stair_semantic", UtilityPlanner, semantic_weight=SEMANTIC_WEIGHT)
+# beyond the paper (the headroom league): a visibility-count and a Fisher-information utility
+register_planner("coverage", CoveragePlanner)
+register_planner("fisher", FisherPlanner)
 
 
 def planner_file_hash(name: str) -> str | None:

@@ -1,6 +1,8 @@
 """Figures shared by the notebooks and the command line: images, scenes, hemisphere views, camera paths."""
 from __future__ import annotations
 
+import hashlib
+
 import matplotlib.pyplot as plt
 import numpy as np
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
@@ -8,6 +10,24 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from .classes import CLASS_COLOURS, CLASS_NAMES, colourise_labels
 from .geometry import HEMISPHERE_RADIUS, view_to_position
 from .lattice import CUBE_BOUND
+
+
+# One colour per planner in every figure (the paper's planners fixed, others from a cycle that avoids these hues); a
+# cross-validation variant takes the colour of the planner whose views it follows
+PLANNER_COLOURS = {"stair": "#d62728", "exploration": "#1f77b4", "fixed": "#7f7f7f", "max_distance": "#2ca02c",
+                   "uniform": "#bcbd22", "ste": "#9467bd", "stair_soft": "#ff7f0e", "stair_semantic": "#8c564b",
+                   "coverage": "#17becf", "fisher": "#e377c2"}
+_OTHER_COLOURS = ("#393b79", "#637939", "#8c6d31", "#843c39", "#7b4173", "#3182bd", "#31a354", "#756bb1")
+
+
+def planner_colour(name: str) -> str:
+    """The colour of a planner or sweep variant, the same in every figure of the package."""
+    from .experiments import CROSS_VALIDATION
+
+    name = CROSS_VALIDATION.get(name, name)
+    if name in PLANNER_COLOURS:
+        return PLANNER_COLOURS[name]
+    return _OTHER_COLOURS[int(hashlib.sha256(name.encode()).hexdigest(), 16) % len(_OTHER_COLOURS)]
 
 
 def show_measurement(m, title: str = "", axes=None):
@@ -137,10 +157,7 @@ def plot_sweep_curves(rows, metric: str = "psnr", variants=None, axes=None, ylab
     if axes is None:
         _, axes = plt.subplots(1, len(scenes), figsize=(4 * len(scenes), 3.3), squeeze=False)
         axes = axes[0]
-    cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    measured_by = {v: CROSS_VALIDATION.get(v, v) for v in variants}
-    order = list(dict.fromkeys(measured_by.values()))
-    colour = {v: cycle[order.index(m) % len(cycle)] for v, m in measured_by.items()}
+    colour = {v: planner_colour(v) for v in variants}
     for ax, scene in zip(axes, scenes):
         for variant in variants:
             if (scene, variant) not in data:
@@ -157,25 +174,27 @@ def plot_sweep_curves(rows, metric: str = "psnr", variants=None, axes=None, ylab
     return axes
 
 
-def plot_headroom(headroom, metrics=("f1", "psnr_clean"), axes=None):
+def plot_headroom(headroom, metrics=("f1", "psnr_clean"), utility: str = "stair", axes=None):
     """The headroom instrument's result (headroom.py): the realised gain of each spread candidate on the
-    hemisphere (seen from above; the planners' picks marked), then per metric the gain against STAIR's utility
-    with its rank correlation."""
+    hemisphere (seen from above; every measured planner's pick marked), then per metric the gain against ``utility``'s
+    score with its rank correlation (stream 0, the mission's own training stream)."""
     if axes is None:
         fig = plt.figure(figsize=(4.2 * (1 + len(metrics)), 4.2))
         axes = [fig.add_subplot(1, 1 + len(metrics), 1, projection="polar")] + [
             fig.add_subplot(1, 1 + len(metrics), 2 + i) for i in range(len(metrics))]
-    markers = {"stair": ("*", "tab:red"), "exploration": ("^", "tab:blue"), "max_distance": ("s", "tab:green")}
-    spread = [r for r in headroom.rows if r["kind"] == "spread"]
+    spread = [r for r in headroom.rows if r["kind"] == "spread" and int(r.get("stream", 0)) == 0]
+    picks = {kind: next(r for r in headroom.rows if r["kind"] == kind) for kind in headroom.utilities}
+    shapes = "*^sDvPXo"
 
     def polar(rows):
         return np.radians([r["azimuth_deg"] for r in rows]), [90 - r["elevation_deg"] for r in rows]
 
     theta, radius = polar(spread)
     im = axes[0].scatter(theta, radius, c=[r[f"gain_{metrics[0]}"] for r in spread], cmap="viridis", s=40)
-    for kind, (marker, colour) in markers.items():
-        t, rad = polar([r for r in headroom.rows if r["kind"] == kind])
-        axes[0].scatter(t, rad, marker=marker, s=120, facecolor="none", edgecolor=colour, linewidth=1.5, label=kind)
+    for i, (kind, r) in enumerate(picks.items()):
+        t, rad = polar([r])
+        axes[0].scatter(t, rad, marker=shapes[i % len(shapes)], s=120, facecolor="none", edgecolor=planner_colour(kind),
+                        linewidth=1.5, label=kind)
     axes[0].set_ylim(0, 90)
     axes[0].set_yticklabels([])
     axes[0].set_title(f"{headroom.scene}, after {headroom.after} views: {metrics[0]} gain\nof each next view (centre: top, rim: horizon)",
@@ -183,13 +202,13 @@ def plot_headroom(headroom, metrics=("f1", "psnr_clean"), axes=None):
     axes[0].legend(fontsize=7, loc="lower left", bbox_to_anchor=(-0.25, -0.2))
     plt.colorbar(im, ax=axes[0], fraction=0.046, pad=0.12)
     for ax, metric in zip(axes[1:], metrics):
-        ax.scatter([r["u_stair"] for r in spread], [r[f"gain_{metric}"] for r in spread], color="grey", s=18, label="spread")
-        for kind, (marker, colour) in markers.items():
-            (r,) = [r for r in headroom.rows if r["kind"] == kind]
-            ax.scatter(r["u_stair"], r[f"gain_{metric}"], marker=marker, s=90, color=colour, label=f"{kind}'s pick")
-        rho = headroom.correlations["stair"][metric]
-        ax.set_title(f"{metric} gain vs STAIR's utility (Spearman {'-' if rho is None else f'{rho:+.2f}'})", fontsize=9)
-        ax.set_xlabel("U (Eq. 15)")
+        ax.scatter([r[f"u_{utility}"] for r in spread], [r[f"gain_{metric}"] for r in spread], color="grey", s=18, label="spread")
+        for i, (kind, r) in enumerate(picks.items()):
+            ax.scatter(r[f"u_{utility}"], r[f"gain_{metric}"], marker=shapes[i % len(shapes)], s=90, color=planner_colour(kind),
+                       label=f"{kind}'s pick")
+        rho = headroom.correlations[utility][metric]
+        ax.set_title(f"{metric} gain vs {utility}'s utility (Spearman {'-' if rho is None else f'{rho:+.2f}'})", fontsize=9)
+        ax.set_xlabel(f"{utility}'s utility")
         ax.set_ylabel(f"realised {metric} gain")
         ax.axhline(0, color="k", linewidth=0.5)
     axes[1].legend(fontsize=7)

@@ -234,3 +234,37 @@ def test_the_planner_variants_beyond_the_paper_carry_their_options():
     assert make_planner("stair_semantic", preset, seed=0).options.semantic_weight > 0
     paper = make_planner("stair", preset, seed=0).options
     assert not paper.soft_mask and paper.semantic_weight == 0
+
+
+class CountedSlabField(SlabField):
+    """The slab field with the measurement counts the coverage and Fisher utilities read: ``views`` views and ``rays``
+    rays saw a surface at every vertex."""
+
+    def __init__(self, o_slab, views=0.0, rays=0.0):
+        super().__init__(o_slab)
+        n = self.lattice.resolution**3
+        self.surface_views, self.surface_rays = torch.full((n,), float(views)), torch.full((n,), float(rays))
+
+
+def _novelty_scores(name, field, views=np.array([[np.pi / 2, 0.0], [1.2, 0.5]])):
+    planner = make_planner(name, get_preset("lite"), seed=0)
+    return planner.utility(field, views, np.zeros((0, 2)), (1,))
+
+
+@pytest.mark.parametrize("name, count", [("coverage", "views"), ("fisher", "rays")])
+def test_a_surface_seen_more_often_scores_less_by_its_count(name, count):
+    """Coverage weighs a surface by 1 / (1 + views that saw it), Fisher by 1 / (1 + rays that saw it): with every
+    vertex seen once, each view's score halves."""
+    fresh = _novelty_scores(name, CountedSlabField(1.0))
+    seen_once = _novelty_scores(name, CountedSlabField(1.0, **{count: 1.0}))
+    assert np.all(fresh > 0)
+    np.testing.assert_allclose(seen_once, fresh / 2, rtol=1e-5)
+
+
+def test_fisher_squares_the_rendering_weights_where_coverage_sums_them():
+    """Through a half-transparent target slab (o = 0.5 at every sample), a ray's weights are 1/2, 1/4, 1/8, ...: they
+    sum to 1 (coverage) and their squares to 1/3 (Fisher, the squared sensitivity), in closed form."""
+    field = CountedSlabField(0.5)
+    top = np.array([[np.pi / 2, 0.0]])
+    ratio = _novelty_scores("fisher", field, top) / _novelty_scores("coverage", field, top)
+    assert ratio[0] == pytest.approx(1 / 3, rel=0.02)

@@ -271,7 +271,9 @@ def _cmd_headroom(args):
     import matplotlib.pyplot as plt
 
     from .experiments import PAPER_SCENES
-    from .headroom import Headroom, measure_headroom, print_headroom
+    import json
+
+    from .headroom import Headroom, add_utilities, measure_headroom, print_headroom, ranking_planners
     from .results_folder import make_output_folder
     from .plotting import plot_headroom
 
@@ -282,8 +284,18 @@ def _cmd_headroom(args):
     for scene in scenes:
         for after in afters:
             stem = out / f"{Path(scene).stem}_after{after}"
-            if len(scenes) * len(afters) > 1 and stem.with_suffix(".json").exists():
-                print(f"{stem}.json exists: kept (delete it to measure again)")
+            if stem.with_suffix(".json").exists() and not args.again:
+                stored = Headroom.load(stem)
+                missing = [u for u in (utilities or ranking_planners()) if u not in stored.utilities]
+                if not missing:
+                    print(f"{stem}.json holds every utility asked for: kept (--again measures it anew)")
+                    continue
+                result = add_utilities(stored, tuple(missing), device=args.device,
+                                       log=lambda line: None if args.quiet else print(line, flush=True))
+                stem = result.save(out, json.loads(stem.with_suffix(".json").read_text()).get("command", "")
+                                   + f" (then --utilities {','.join(missing)} added)")
+                print_headroom(result)
+                print(f"added {', '.join(missing)} to {stem}.csv, .json")
                 continue
             result = measure_headroom(scene, after, args.candidates, seed=args.seed, preset=args.preset,
                                       utilities=utilities, streams=args.streams, device=args.device,
@@ -398,6 +410,8 @@ def main(argv=None):
     p.add_argument("--utilities", default=None, help="comma-separated planners whose utility and pick are measured, "
                    "registered or path/to/file.py:ClassName (default: every registered planner with a utility)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--again", action="store_true", help="measure a table anew even if --out holds it (by default a "
+                   "stored table is kept, and utilities it lacks are added to it)")
     p.add_argument("--out", default="runs/headroom")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_headroom)

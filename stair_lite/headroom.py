@@ -175,12 +175,49 @@ def measure_headroom(scene: str, after: int, n_candidates: int, seed: int = 0, p
             f"clean PSNR gain {rows[-1]['gain_psnr_clean']:+.2f} dB")
     before = {m: state.before[m] for m in metrics}
     result = Headroom(scene, after, seed, preset, before, rows, {}, tuple(utilities), streams, metrics=metrics)
-    spread_rows = [r for r in rows if r["kind"] == "spread" and r["stream"] == 0]
-    result.correlations = {u: {m: rank_correlation([r[f"u_{u}"] for r in spread_rows], [r[f"gain_{m}"] for r in spread_rows])
-                               for m in metrics} for u in utilities}
+    result.correlations = _correlations(result)
     if streams > 1:
         result.ceiling = {m: noise_ceiling(np.array([result.gains(m, stream=s) for s in range(streams)])) for m in metrics}
     return result
+
+
+def add_utilities(result: Headroom, utilities: tuple[str, ...], device: str = "cpu", log=print) -> Headroom:
+    """``result`` with more utilities measured on the same realised views: the mission is run again (it is seeded), each
+    new planner's pick is realised (stream 0), and every utility scores every realised view again."""
+    new = [u for u in utilities if u not in result.utilities]
+    if not new:
+        return result
+    state = MapAfter(result.scene, result.after, result.seed, result.preset, device)
+    names = (*result.utilities, *new)
+    planners = {name: state.planner(name) for name in names}
+    rows = [dict(r) for r in result.rows]
+    for name in new:
+        view = planners[name].next_view(state.source_for(planners[name]), state.visited, state.targets).view
+        realised = state.realise(view)
+        rows.append({"kind": name, "stream": 0, "elevation_deg": float(np.degrees(view[0])),
+                     "azimuth_deg": float(np.degrees(view[1])),
+                     **{m: float(realised[m]) for m in result.metrics},
+                     **{f"gain_{m}": METRICS[m].gain(result.before[m], float(realised[m])) for m in result.metrics}})
+        log(f"{result.scene} after {result.after}: {name}'s pick realised, F1 gain {rows[-1]['gain_f1']:+.3f}")
+    views = np.radians([[r["elevation_deg"], r["azimuth_deg"]] for r in rows])
+    for name, p in planners.items():
+        scores = p.utility(state.source_for(p), views, state.visited, state.targets)
+        for r, score in zip(rows, scores):
+            r[f"u_{name}"] = float(score)
+    rows = [{k: r[k] for k in ("kind", "stream", "elevation_deg", "azimuth_deg", *(f"u_{u}" for u in names),
+                               *result.metrics, *(f"gain_{m}" for m in result.metrics))} for r in rows]
+    grown = Headroom(result.scene, result.after, result.seed, result.preset, result.before, rows, {}, names,
+                     result.streams, result.ceiling, result.metrics)
+    grown.correlations = _correlations(grown)
+    return grown
+
+
+def _correlations(result: Headroom) -> dict:
+    """Per utility and metric, Spearman's correlation of the utility with the realised gain over the spread views of
+    stream 0."""
+    spread = [r for r in result.rows if r["kind"] == "spread" and int(r.get("stream", 0)) == 0]
+    return {u: {m: rank_correlation([r[f"u_{u}"] for r in spread], [r[f"gain_{m}"] for r in spread])
+                for m in result.metrics} for u in result.utilities}
 
 
 def noise_ceiling(gains: np.ndarray) -> dict:

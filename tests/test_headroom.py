@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from stair_lite.headroom import Headroom, measure_headroom, noise_ceiling, ranking_planners
+from stair_lite.headroom import Headroom, add_utilities, measure_headroom, noise_ceiling, ranking_planners
 from stair_lite.mission import Mission, MissionConfig
 
 
@@ -49,3 +49,15 @@ def test_the_noise_ceiling_is_perfect_for_identical_streams_and_lower_for_noisy_
     noisy = gains + np.random.default_rng(0).normal(0, 3.0, gains.shape)
     ceiling = noise_ceiling(noisy)
     assert ceiling["spearman"] < 0.95 and ceiling["pick_percentile"] <= 7 / 8
+
+
+def test_adding_a_utility_to_a_stored_table_equals_measuring_it_with_the_others():
+    """The league grows by utility without realising the spread views again: the mission is seeded, so the added
+    planner's pick and every score come out as in one measurement of both."""
+    both = measure_headroom("scene1", after=2, n_candidates=3, seed=0, preset="smoke",
+                            utilities=("stair", "exploration"), log=lambda line: None)
+    one = measure_headroom("scene1", after=2, n_candidates=3, seed=0, preset="smoke", utilities=("stair",),
+                           log=lambda line: None)
+    grown = add_utilities(one, ("exploration",), log=lambda line: None)
+    assert grown.utilities == both.utilities and grown.correlations == both.correlations
+    assert [sorted(r.items()) for r in grown.rows] == [sorted(r.items()) for r in both.rows]

@@ -131,6 +131,11 @@ class PlanConfig:
     candidate_scale: float = 0.2  # 400x400 -> 80x80 = N_ray
     candidate_samples: int = 200  # N_pt
     epsilon: float = 0.2  # the exploration weight of Eq. 15 (the one default; UtilityOptions takes it from here)
+    # how the planning renders mark space no measured ray reached (utility.UtilityOptions; the field itself keeps it
+    # empty, so metrics and meshes never see it): its prior occupancy (0: unknown space carries no entropy, as the
+    # authors' code in effect), and the distance [m] from a target surface within which it renders as that target
+    unknown_occupancy: float = 0.0
+    unknown_target_radius: float = 0.0
 
     def __post_init__(self):
         check_epsilon(self.epsilon)
@@ -140,7 +145,7 @@ class PlanConfig:
 class ExplicitConfig:
     """The explicit STE baseline's map (OctoMap's sensor model and clamping) and ROI planner."""
 
-    resolution: int = 128  # the same grid size as the field (paper Sec. IV-C)
+    resolution: int = 128  # the paper compares both maps at one grid size (Sec. IV-C): each preset sets the field's
     bound: float = CUBE_BOUND
     prob_hit: float = 0.7
     prob_miss: float = 0.4
@@ -189,6 +194,12 @@ LITE = Preset(
     plan=PlanConfig(candidate_scale=0.1, candidate_samples=64),
 )
 
+# lite's candidate successor (README, "The league of utilities"): the planning renders mark the space no measured ray
+# reached (prior occupancy 0.5, the most uncertain; within 20 cm of a target surface it renders as that target), and STE's
+# voxel map has the field's grid (the paper's rule, Sec. IV-C). Its studies run into *_lite_next folders until lite adopts it
+LITE_NEXT = replace(LITE, name="lite_next", plan=replace(LITE.plan, unknown_occupancy=0.5, unknown_target_radius=0.2),
+                    explicit=replace(LITE.explicit, resolution=LITE.field.grid_resolution))
+
 # A seconds-long preset for smoke tests of whole pipelines (missions, sweeps); its metrics mean little.
 SMOKE = Preset(
     name="smoke",
@@ -197,10 +208,10 @@ SMOKE = Preset(
     train=TrainConfig(rays_new=128, rays_replay=128, iterations_per_view=5),
     eval=EvalConfig(n_test_views=3, image_scale=0.1, mesh_resolution=32, mesh_points=2000, render_samples=24),
     plan=PlanConfig(n_uniform=12, top_k=2, n_resample=2, candidate_scale=0.03, candidate_samples=24),
-    explicit=ExplicitConfig(resolution=32, n_candidates=12, candidate_scale=0.03),
+    explicit=ExplicitConfig(resolution=24, n_candidates=12, candidate_scale=0.03),  # the field's grid
 )
 
-PRESETS = {"paper": PAPER, "lite": LITE, "smoke": SMOKE}
+PRESETS = {"paper": PAPER, "lite": LITE, "lite_next": LITE_NEXT, "smoke": SMOKE}
 
 
 def get_preset(name: str = "lite", **overrides) -> Preset:

@@ -128,8 +128,11 @@ class UtilityPlanner(Planner):
 
     @classmethod
     def from_preset(cls, preset, rng, exploration_only: bool = False, **utility_options) -> "UtilityPlanner":
-        """The preset's candidates and epsilon; ``utility_options``: the ``UtilityOptions`` beside epsilon."""
-        options = UtilityOptions(epsilon=preset.plan.epsilon, **utility_options)
+        """The preset's candidates, epsilon and marking of the unknown; ``utility_options``: ``UtilityOptions`` beside
+        (or instead of) those."""
+        plan = preset.plan
+        options = UtilityOptions(**{"epsilon": plan.epsilon, "unknown_occupancy": plan.unknown_occupancy,
+                                    "unknown_target_radius": plan.unknown_target_radius, **utility_options})
         return cls(preset.plan, rng, options, exploration_only=exploration_only)
 
     def _source(self, field, targets):
@@ -190,6 +193,7 @@ class CoveragePlanner(UtilityPlanner):
 
     score_columns = ("coverage",)
     power = 1  # the rendering weight's exponent
+    incidence = False  # weigh each surface sample by |cos| of the angle between the ray and the surface normal
 
     def _novelty(self, field):
         return 1.0 / (1.0 + field.surface_views)
@@ -197,7 +201,7 @@ class CoveragePlanner(UtilityPlanner):
     def _source(self, field, targets):
         near = (tuple(targets), self.options.unknown_target_radius) if self.options.unknown_target_radius > 0 else None
         return FieldSnapshot(field, unknown_occupancy=self.options.unknown_occupancy, unknown_targets=near,
-                             novelty=self._novelty(field))
+                             novelty=self._novelty(field), normals=self.incidence)
 
     def _score(self, source, views, targets) -> NoveltyScores:
         per_chunk = max(1, 2**21 // (self.intrinsics.width * self.intrinsics.height * self.cfg.candidate_samples))
@@ -395,9 +399,16 @@ register_planner("ste", STEPlanner, paper=True)
 # beyond the paper (notebook 07): STAIR's planner with the soft target mask, or with the semantic-uncertainty term
 register_planner("stair_soft", UtilityPlanner, soft_mask=True)
 register_planner("stair_semantic", UtilityPlanner, semantic_weight=SEMANTIC_WEIGHT)
-# beyond the paper (the headroom league): a visibility-count and a Fisher-information utility
-register_planner("coverage", CoveragePlanner)
-register_planner("fisher", FisherPlanner)
+# the authors' code's rule (README, "The league"): samples below o = 0.01 or of the background class deleted, the ray's
+# uncertainty 1 - exp(-H_ray) (bits), only on rays of accumulated opacity above 0.01
+register_planner("stair_reference", UtilityPlanner, delete_background=True, min_occupancy=0.01, saturating_rays=True,
+                 min_ray_opacity=0.01)
+# beyond the paper (the headroom league, README): STAIR on a map whose planning renders mark the unknown (lite_next's
+# rule at any preset); a visibility-count and a Fisher-information utility, which look through unknown space at the
+# surfaces behind it (the league measured them best so)
+register_planner("stair_unknown", UtilityPlanner, unknown_occupancy=0.5, unknown_target_radius=0.2)
+register_planner("coverage", CoveragePlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
+register_planner("fisher", FisherPlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 
 
 def planner_file_hash(name: str) -> str | None:

@@ -16,7 +16,7 @@ from .lattice import CUBE_BOUND
 # cross-validation variant takes the colour of the planner whose views it follows
 PLANNER_COLOURS = {"stair": "#d62728", "exploration": "#1f77b4", "fixed": "#7f7f7f", "max_distance": "#2ca02c",
                    "uniform": "#bcbd22", "ste": "#9467bd", "stair_soft": "#ff7f0e", "stair_semantic": "#8c564b",
-                   "coverage": "#17becf", "fisher": "#e377c2"}
+                   "coverage": "#17becf", "fisher": "#e377c2", "stair_unknown": "#ff9896", "stair_reference": "#c49c94"}
 _OTHER_COLOURS = ("#393b79", "#637939", "#8c6d31", "#843c39", "#7b4173", "#3182bd", "#31a354", "#756bb1")
 
 

@@ -54,6 +54,8 @@ class UtilityOptions:
     ``unknown_target_radius``: unknown vertices within this distance [m] of a target surface render with that
     target's class, so that the unseen side of a target counts as exploitation (0: off).
     ``min_ray_opacity``: rays whose accumulated opacity is below this carry no uncertainty (the reference code: 0.01).
+    ``min_occupancy``: samples whose occupancy is below this count as empty (the reference code: 0.01, below which it
+    computes no class logits and so deletes the sample as background).
     """
 
     epsilon: float = PlanConfig.epsilon
@@ -65,6 +67,7 @@ class UtilityOptions:
     unknown_occupancy: float = 0.0
     unknown_target_radius: float = 0.0
     min_ray_opacity: float = 0.0
+    min_occupancy: float = 0.0
 
     def __post_init__(self):
         check_epsilon(self.epsilon)
@@ -74,6 +77,8 @@ class UtilityOptions:
             raise ValueError(f"unknown_occupancy must be a probability in [0, 1), got {self.unknown_occupancy!r}")
         if not (np.isfinite(self.unknown_target_radius) and self.unknown_target_radius >= 0):
             raise ValueError(f"unknown_target_radius must be a finite distance >= 0, got {self.unknown_target_radius!r}")
+        if not 0.0 <= self.min_occupancy < 1.0:
+            raise ValueError(f"min_occupancy must be in [0, 1), got {self.min_occupancy!r}")
         if not 0.0 <= self.min_ray_opacity < 1.0:
             raise ValueError(f"min_ray_opacity must be in [0, 1), got {self.min_ray_opacity!r}")
         if self.mask_dilation < 0:
@@ -87,7 +92,8 @@ class FieldSnapshot:
     (closer to the field, about 3x slower)."""
 
     def __init__(self, field, resolution: int | None = None, trilinear: bool = False, unknown_occupancy: float = 0.0,
-                 unknown_targets: tuple[tuple[int, ...], float] | None = None, novelty: torch.Tensor | None = None):
+                 unknown_targets: tuple[tuple[int, ...], float] | None = None, novelty: torch.Tensor | None = None,
+                 normals: bool = False):
         self.lattice = Lattice(resolution or field.lattice.resolution, field.lattice.bound)
         self.device, self.trilinear = field.device, trilinear
         q = field.query(self.lattice.points(field.device))
@@ -102,6 +108,11 @@ class FieldSnapshot:
         # one table per vertex: occupancy, entropy, class probabilities (and a novelty per vertex, for the coverage and
         # Fisher utilities: how little the surface there has been observed)
         columns = [occ[:, None], point_entropy(occ)[:, None], sem] + ([novelty[:, None]] if novelty is not None else [])
+        if normals:  # the surface normal at each vertex: minus the occupancy's gradient, normalised (0 where it is flat)
+            r = self.lattice.resolution
+            grad = torch.stack(torch.gradient(occ.view(r, r, r)), dim=-1).reshape(-1, 3).flip(-1)  # (z, y, x) -> xyz
+            length = grad.norm(dim=1, keepdim=True)
+            columns.append(torch.where(length > 1e-6, -grad / length.clamp_min(1e-6), torch.zeros_like(grad)))
         self.table = torch.cat(columns, dim=1)
 
     @classmethod
@@ -152,9 +163,9 @@ def exact_samples(field, points: torch.Tensor) -> torch.Tensor:
 
 
 def _samples_on_rays(source, intrinsics: Intrinsics, poses: list[np.ndarray], n_samples: int,
-                     near: float) -> tuple[torch.Tensor, torch.Tensor]:
+                     near: float) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """The snapshot's (or the exact field's) values at ``n_samples`` samples inside the cube along every pixel ray of
-    every pose, (rays, samples, columns), and which rays meet the cube."""
+    every pose, (rays, samples, columns), which rays meet the cube, and the rays' directions."""
     device, bound = source.device, source.lattice.bound
     rays = [pixel_rays(intrinsics, p) for p in poses]
     origins = torch.as_tensor(np.concatenate([o for o, _ in rays]), dtype=torch.float32, device=device)
@@ -162,8 +173,8 @@ def _samples_on_rays(source, intrinsics: Intrinsics, poses: list[np.ndarray], n_
     t_near, t_far, hit = ray_box_intersection(origins, dirs, bound, near)
     t = sample_along_rays(t_near, torch.where(hit, t_far, t_near + 1e-3), n_samples)
     if isinstance(source, FieldSnapshot):
-        return source.lookup_on_rays(origins, dirs, t), hit
-    return exact_samples(source, origins[:, None, :] + t[..., None] * dirs[:, None, :]), hit
+        return source.lookup_on_rays(origins, dirs, t), hit, dirs
+    return exact_samples(source, origins[:, None, :] + t[..., None] * dirs[:, None, :]), hit, dirs
 
 
 @torch.no_grad()
@@ -171,11 +182,14 @@ def render_novel_target_surface(source: "FieldSnapshot", intrinsics: Intrinsics,
                                 targets: tuple[int, ...], power: int = 1, near: float = 0.2) -> torch.Tensor:
     """Per ray (V, H, W): sum_i w_i^power p_T(x_i) nu(x_i), the expected target surface a ray would see, weighted by
     the snapshot's novelty column nu (``FieldSnapshot(novelty=...)``): how little that surface has been observed."""
-    values, hit = _samples_on_rays(source, intrinsics, poses, n_samples, near)
+    values, hit, dirs = _samples_on_rays(source, intrinsics, poses, n_samples, near)
     occ = values[..., 0] * hit[:, None]
     weights, _ = compositing_weights(occ)
     p_target = values[..., [2 + t for t in targets]].sum(dim=-1)
-    per_ray = (weights**power * p_target * values[..., 2 + NUM_CLASSES]).sum(dim=1)
+    per_sample = weights**power * p_target * values[..., 2 + NUM_CLASSES]
+    if values.shape[-1] > 3 + NUM_CLASSES:  # surface normals: a surface seen head-on is measured best (|cos| of incidence)
+        per_sample = per_sample * (values[..., 3 + NUM_CLASSES : 6 + NUM_CLASSES] * dirs[:, None, :]).sum(dim=-1).abs()
+    per_ray = per_sample.sum(dim=1)
     return per_ray.view(len(poses), intrinsics.height, intrinsics.width)
 
 
@@ -188,16 +202,18 @@ def render_uncertainty(
     near: float = 0.2,
     delete_background: bool = False,
     min_ray_opacity: float = 0.0,
+    min_occupancy: float = 0.0,
 ) -> dict[str, torch.Tensor]:
     """Render, for each pose, per-ray entropy H_ray (V, H, W), class probabilities S (V, H, W, P) and the
     entropy of S, H_sem (V, H, W).
 
     ``source`` is a FieldSnapshot (fast) or a SemanticField (exact: the field runs at every sample).
     """
-    values, hit = _samples_on_rays(source, intrinsics, poses, n_samples, near)
+    values, hit, _ = _samples_on_rays(source, intrinsics, poses, n_samples, near)
     occ, entropy, probs = values[..., 0] * hit[:, None], values[..., 1] * hit[:, None], values[..., 2 : 2 + NUM_CLASSES]
-    if delete_background:
-        empty = probs.argmax(dim=-1) == BACKGROUND
+    if delete_background or min_occupancy > 0:
+        empty = (probs.argmax(dim=-1) == BACKGROUND) if delete_background else torch.zeros_like(occ, dtype=torch.bool)
+        empty |= occ < min_occupancy
         occ, entropy = occ.masked_fill(empty, 0.0), entropy.masked_fill(empty, 0.0)
     weights, transmittance = compositing_weights(occ)
     h_ray = (transmittance * entropy).sum(dim=1)  # Eq. 11
@@ -268,7 +284,7 @@ def score_views(
     for start in range(0, len(views), chunk_views):
         poses = [view_to_pose(el, az) for el, az in views[start : start + chunk_views]]
         out = render_uncertainty(source, intrinsics, poses, n_samples, delete_background=options.delete_background,
-                                 min_ray_opacity=options.min_ray_opacity)
+                                 min_ray_opacity=options.min_ray_opacity, min_occupancy=options.min_occupancy)
         h = out["h_ray"]
         if options.saturating_rays:
             h = 1.0 - torch.exp(-h / np.log(2.0))

@@ -268,3 +268,23 @@ def test_fisher_squares_the_rendering_weights_where_coverage_sums_them():
     top = np.array([[np.pi / 2, 0.0]])
     ratio = _novelty_scores("fisher", field, top) / _novelty_scores("coverage", field, top)
     assert ratio[0] == pytest.approx(1 / 3, rel=0.02)
+
+
+class HalfSeenField(SlabField):
+    """An opaque target block at the origin whose far side (x > 0.35 m) no measured ray reached."""
+
+    def __init__(self):
+        super().__init__(1.0, z0=0.0, z1=0.8)
+        self.reached = self.lattice.points()[:, 0] < 0.35
+        self.surface_views = self.surface_rays = torch.zeros(self.lattice.resolution**3)
+
+
+def test_a_view_onto_unseen_space_scores_above_a_view_onto_seen_space():
+    """With the unknown marked (lite_next's planning renders), the view from the unseen side (camera at +x) scores
+    above the view from the seen side (-x), which meets the opaque block before any unknown space; with the unknown
+    unmarked (the paper's field as implemented), both see the same block and score the same."""
+    views = np.array([[0.3, 0.0], [0.3, np.pi]])  # the camera at +x, then at -x
+    marked, unmarked = (make_planner("stair", get_preset(name), seed=0).utility(HalfSeenField(), views, np.zeros((0, 2)), (1,))
+                        for name in ("lite_next", "lite"))
+    assert marked[0] > 1.5 * marked[1]
+    assert unmarked[0] == pytest.approx(unmarked[1], rel=0.05)

@@ -234,8 +234,9 @@ def noise_ceiling(gains: np.ndarray) -> dict:
 
 
 def rank_correlation(a, b) -> float | None:
-    """Spearman's rank correlation; None when either side does not vary (no ranking to compare)."""
-    if np.ptp(a) == 0 or np.ptp(b) == 0:
+    """Spearman's rank correlation; None when either side does not vary or is missing (a planner that ranks nothing)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if not (np.isfinite(a).all() and np.isfinite(b).all()) or np.ptp(a) == 0 or np.ptp(b) == 0:
         return None
     return float(stats.spearmanr(a, b).statistic)
 

@@ -178,7 +178,8 @@ class Trainer:
         self.iterations = 0
         # the field's lattice vertices nearest to a measured surface point (back-projected depth)
         self.measured_surface = torch.zeros(field.lattice.resolution**3, dtype=torch.bool, device=field.device)
-        self.skip: SkipGrid | None = None  # empty-space skipping of the current update (cfg.skip_below)
+        self.skip: SkipGrid | None = None  # empty-space skipping (cfg.skip_below); None: to be built
+        self._skip_built_at = 0  # the iteration count when ``skip`` was built
 
     def state_dict(self) -> dict:
         """What training needs to continue exactly (the field's weights and the rays are kept elsewhere):
@@ -203,6 +204,7 @@ class Trainer:
     def add_measurement(self, m: Measurement) -> None:
         """Store a new measurement; the next ``update`` trains on it."""
         self.buffer.add(m)
+        self.skip = None  # a new measured surface may lie in a skipped cell
         points = torch.as_tensor(back_project(m)[0], dtype=torch.float32, device=self.field.device)
         nearest = self.field.lattice.nearest_index(points)
         self.measured_surface[nearest] = True
@@ -234,8 +236,9 @@ class Trainer:
         draws one active set per view), then dealt out in batches; ``replay=False`` switches replay
         off, to show forgetting.
 
-        Empty-space skipping (``cfg.skip_below``): at the start of the update and every ``cfg.skip_refresh``
-        iterations, the lattice cells where the field's occupancy is below the threshold and no measured
+        Empty-space skipping (``cfg.skip_below``): after a new measurement and then every ``cfg.skip_refresh``
+        iterations (counted across update calls, so that updates of one iteration each rebuild no more often than
+        one long update), the lattice cells where the field's occupancy is below the threshold and no measured
         surface lies are marked empty, and samples there are not evaluated until the next refresh (they
         would only be pushed further towards 0; a surface can still grow wherever a measurement saw one).
         """
@@ -253,7 +256,9 @@ class Trainer:
                 start = (i * self.cfg.rays_replay) % len(replay)
                 index = np.concatenate([index, np.take(replay, np.arange(start, start + self.cfg.rays_replay), mode="wrap")])
             np.add.at(self.buffer.use_counts, index, 1)
-            if self.cfg.skip_below is not None and i % self.cfg.skip_refresh == 0:
+            if self.cfg.skip_below is not None and (self.skip is None
+                                                    or self.iterations - self._skip_built_at >= self.cfg.skip_refresh):
                 self.skip = build_skip_grid(self.field, threshold=self.cfg.skip_below, also_keep=self.measured_surface)
+                self._skip_built_at = self.iterations
             history.append(self.step(self._batch(index)))
         return history

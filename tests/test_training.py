@@ -212,3 +212,22 @@ def test_a_measurement_marks_the_cells_its_rays_reached_and_none_behind_the_surf
     with torch.no_grad():
         plain.occ_mlp[-1].bias.fill_(50.0)
     assert torch.allclose(plain.query(points)["occ"], torch.ones(1))  # off: the head everywhere, as the paper
+
+
+def test_the_skip_grid_is_rebuilt_after_a_measurement_and_every_refresh_not_every_call(monkeypatch):
+    """Updates of one iteration each rebuild the skip grid as one long update does: at the start (a new measurement)
+    and then every ``skip_refresh`` iterations, counted across calls."""
+    import stair_lite.training as training
+
+    builds = []
+    real = training.build_skip_grid
+    monkeypatch.setattr(training, "build_skip_grid", lambda *a, **kw: builds.append(1) or real(*a, **kw))
+    sim = Simulator(load_scene("scene1"), Intrinsics.from_fov(40, 40))
+    trainer = Trainer(SemanticField(SMALL_FIELD), replace(SMALL_TRAIN, skip_refresh=5), SMALL_RENDER)
+    trainer.add_measurement(sim.render(view_to_pose(np.pi / 2, 0.0)))
+    for _ in range(12):
+        trainer.update(1)
+    assert len(builds) == 3  # at iterations 0, 5 and 10
+    trainer.add_measurement(sim.render(view_to_pose(0.6, 1.0)))
+    trainer.update(1)
+    assert len(builds) == 4  # a new measurement: rebuilt at once

@@ -24,3 +24,14 @@ def test_results_md_quotes_the_label_noise_verdicts():
     quoted = text[text.index(begin):text.index(end)].split("\n", 1)[1].rstrip("\n")
     computed = noise_report(study_rows(RESULTS_DIR, log=lambda message: None)).rstrip("\n")
     assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite label-noise-claims`"
+
+
+def test_results_md_quotes_the_computed_league():
+    from stair_lite.headroom import Headroom, league_markdown
+
+    begin, end = "<!-- league: generated", "<!-- league: end -->"
+    text = RESULTS_MD.read_text()
+    quoted = text[text.index(begin):text.index(end)].split("\n", 1)[1].rstrip("\n")
+    folder = RESULTS_DIR / "headroom_league_lite"
+    computed = league_markdown([Headroom.load(p.with_suffix("")) for p in sorted(folder.glob("*.json"))]).rstrip("\n")
+    assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite league ...`"

@@ -2,12 +2,13 @@
 
 Introduced in notebook 06. From a seeded STAIR mission's state after K views, N candidate views spread
 over the hemisphere (a Fibonacci set) are each added to a copy of the map, which is trained the same way
-(the same training state and random stream) and evaluated. A view's realised gain is a metric after it
-minus the metric before it (for the chamfer distance, before minus after: a gain is always an
-improvement). Every candidate is also scored by three planners' utilities: STAIR's U (Eq. 15),
-Exploration's U_er (Eq. 12) and Max View Distance's mean squared camera distance; the three planners' own
-picks are realised the same way. The spread of the gains is the headroom a planner has; the rank
-correlation (Spearman) of a utility with the gains says whether the utility finds it.
+(the same training state and random stream, or another stream for the noise ceiling) and evaluated. A view's
+realised gain is a metric after it minus the metric before it (for the chamfer distance, before minus after: a gain is
+always an improvement). Every candidate is also scored by each measured planner's ``utility`` (by default every
+registered planner that ranks views: STAIR's U of Eq. 15, Exploration's U_er of Eq. 12, Max View Distance's mean
+squared camera distance, and the utilities beyond the paper), and each planner's own pick is realised the same way.
+The spread of the gains is the headroom a planner has; the rank correlation (Spearman) of a utility with the gains
+says whether the utility finds it; ``league`` compares the utilities over many tables against the noise ceiling.
 """
 from __future__ import annotations
 

@@ -316,11 +316,12 @@ def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: boo
     outcomes = [(c, "finished before") for c in cells if states[c] == "done"]
     waiting = [c for c in cells if states[c] != "done"]
 
-    def release() -> list[Cell]:
-        """Unfinished cells whose replay source (if any) has finished, in sweep order."""
-        ready = [c for c in waiting if replay_source(c) is None or replay_source(c) in finished]
-        for c in ready:
-            waiting.remove(c)
+    def release() -> Cell | None:
+        """The first unfinished cell in sweep order whose replay source (if any) has finished (None: none is ready), so
+        a cross-validation cell runs before later seeds' cells once the cell it replays has finished."""
+        ready = next((c for c in waiting if replay_source(c) is None or replay_source(c) in finished), None)
+        if ready is not None:
+            waiting.remove(ready)
         return ready
 
     bar = tqdm(total=len(cells), initial=len(outcomes), desc="cells", unit="cell", disable=not progress)
@@ -333,9 +334,8 @@ def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: boo
 
     try:
         if workers <= 1 and scheduler is None:
-            while ready := release():
-                for c in ready:  # one torch thread, as a cluster's workers: float sums depend on the thread count
-                    done(run_cell(c, str(root), spec.preset, spec.budget, 1, device, spec.label_noise))
+            while (c := release()) is not None:  # one torch thread, as a cluster's workers: float sums depend on it
+                done(run_cell(c, str(root), spec.preset, spec.budget, 1, device, spec.label_noise))
         else:
             with dask_client(workers, scheduler) as client:
                 run_on_cluster(client, release, done, root, spec, device)
@@ -401,17 +401,17 @@ def run_on_cluster(client, release, done, root: Path, spec: SweepSpec, device: s
     a dead worker fails that one cell."""
     from dask.distributed import as_completed
 
-    pending, cell_of, queue = [], {}, as_completed()
+    cell_of, queue = {}, as_completed()
 
     def fill() -> None:
-        pending.extend(release())
-        slots = max(1, sum(client.nthreads().values())) - queue.count()
-        for c in pending[:max(slots, 0)]:
+        for _ in range(max(1, sum(client.nthreads().values())) - queue.count()):
+            c = release()
+            if c is None:
+                return
             future = client.submit(run_cell, c, str(root), spec.preset, spec.budget, 1, device, spec.label_noise, pure=False,
                                    key=f"{c.scene}-{c.variant}-seed{c.seed}-{uuid.uuid4().hex[:8]}")
             cell_of[future] = c
             queue.add(future)
-        del pending[:max(slots, 0)]
 
     fill()
     for future in queue:

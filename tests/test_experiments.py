@@ -297,3 +297,10 @@ def test_a_stopped_sweep_stops_its_workers(tmp_path, stop):
     cells = spec(variants=("uniform", "fixed"), seeds=tuple(range(seeds))).cells()
     finished = [c for c in cells if cell_state(c, tmp_path, budget) == "done"]
     assert len(finished) < len(cells), "the sweep ended before it was stopped: the test proves nothing"
+
+
+def test_a_cross_validation_cell_runs_before_the_next_seeds_cells(tmp_path):
+    """A sweep stopped early holds whole seeds of every variant: the cell that replays another runs as soon as that
+    one has finished, before the cells of the next seed."""
+    outcomes = run_sweep(spec(variants=("ste", "ste_implicit"), seeds=(0, 1), budget=1), tmp_path, progress=False)
+    assert [(c.variant, c.seed) for c, _ in outcomes] == [("ste", 0), ("ste_implicit", 0), ("ste", 1), ("ste_implicit", 1)]

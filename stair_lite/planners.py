@@ -37,10 +37,9 @@ from .geometry import (
     fibonacci_hemisphere,
     local_views,
     random_hemisphere,
-    view_to_pose,
     view_to_position,
 )
-from .utility import FieldSnapshot, Scores, UtilityOptions, render_novel_target_surface, score_views
+from .utility import FieldSnapshot, Scores, UtilityOptions, poses_in_chunks, render_novel_target_surface, score_views
 
 # The reference code rejects candidates within cosine distance 0.01 (about 8.1 degrees) of a visited view.
 MIN_SEPARATION = float(np.arccos(1.0 - 0.01))
@@ -199,15 +198,12 @@ class CoveragePlanner(UtilityPlanner):
         return 1.0 / (1.0 + field.surface_views)
 
     def _source(self, field, targets):
-        near = (tuple(targets), self.options.unknown_target_radius) if self.options.unknown_target_radius > 0 else None
-        return FieldSnapshot(field, unknown_occupancy=self.options.unknown_occupancy, unknown_targets=near,
-                             novelty=self._novelty(field), normals=self.incidence)
+        return FieldSnapshot.for_planning(field, self.options, targets, novelty=self._novelty(field), normals=self.incidence)
 
     def _score(self, source, views, targets) -> NoveltyScores:
-        per_chunk = max(1, 2**21 // (self.intrinsics.width * self.intrinsics.height * self.cfg.candidate_samples))
-        values = [render_novel_target_surface(source, self.intrinsics, [view_to_pose(*v) for v in views[i : i + per_chunk]],
-                                              self.cfg.candidate_samples, targets, self.power).sum(dim=(1, 2)).cpu().numpy()
-                  for i in range(0, len(views), per_chunk)]
+        n = self.cfg.candidate_samples
+        values = [render_novel_target_surface(source, self.intrinsics, poses, n, targets, self.power).sum(dim=(1, 2)).cpu().numpy()
+                  for poses in poses_in_chunks(views, self.intrinsics, n)]
         return NoveltyScores(self.score_columns[0], np.concatenate(values) if values else np.zeros(0))
 
     def _value(self, scores: NoveltyScores) -> np.ndarray:

@@ -116,10 +116,13 @@ class FieldSnapshot:
         self.table = torch.cat(columns, dim=1)
 
     @classmethod
-    def for_planning(cls, field, options: "UtilityOptions", targets: tuple[int, ...]) -> "FieldSnapshot":
-        """The snapshot a planner with ``options`` reads (the unknown marked as the options say)."""
+    def for_planning(cls, field, options: "UtilityOptions", targets: tuple[int, ...], novelty: torch.Tensor | None = None,
+                     normals: bool = False) -> "FieldSnapshot":
+        """The snapshot a planner with ``options`` reads (the unknown marked as the options say; ``novelty`` and
+        ``normals`` for the coverage and Fisher utilities)."""
         near = (tuple(targets), options.unknown_target_radius) if options.unknown_target_radius > 0 else None
-        return cls(field, unknown_occupancy=options.unknown_occupancy, unknown_targets=near)
+        return cls(field, unknown_occupancy=options.unknown_occupancy, unknown_targets=near, novelty=novelty,
+                   normals=normals)
 
     def lookup(self, points: torch.Tensor) -> torch.Tensor:
         """(..., 2 + P) values at each point: of the nearest lattice vertex, or trilinearly interpolated."""
@@ -273,16 +276,22 @@ class Scores:
                 "exploration": float(self.exploration[i]), "semantic_uncertainty": float(self.semantic[i])}
 
 
+def poses_in_chunks(views: np.ndarray, intrinsics: Intrinsics, n_samples: int, chunk_samples: int = 2**21):
+    """The poses of ``views`` (elevation, azimuth) in lists of whole views of about ``chunk_samples`` samples each: the
+    memory of one render, which no score depends on."""
+    per_chunk = max(1, chunk_samples // (intrinsics.width * intrinsics.height * n_samples))
+    for start in range(0, len(views), per_chunk):
+        yield [view_to_pose(el, az) for el, az in views[start : start + per_chunk]]
+
+
 def score_views(
     source, views: np.ndarray, targets: tuple[int, ...], intrinsics: Intrinsics, n_samples: int,
     options: UtilityOptions = UtilityOptions(), chunk_samples: int = 2**21,
 ) -> Scores:
     """Eqs. 12-15 for every view (elevation, azimuth) of ``views`` (and U_sem), rendered in chunks of whole views
     of about ``chunk_samples`` samples (the memory of one chunk; the scores do not depend on it)."""
-    chunk_views = max(1, chunk_samples // (intrinsics.width * intrinsics.height * n_samples))
     u_er, u_et, u_sem = [], [], []
-    for start in range(0, len(views), chunk_views):
-        poses = [view_to_pose(el, az) for el, az in views[start : start + chunk_views]]
+    for poses in poses_in_chunks(views, intrinsics, n_samples, chunk_samples):
         out = render_uncertainty(source, intrinsics, poses, n_samples, delete_background=options.delete_background,
                                  min_ray_opacity=options.min_ray_opacity, min_occupancy=options.min_occupancy)
         h = out["h_ray"]

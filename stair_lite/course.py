@@ -7,17 +7,23 @@ worth ``points``; it passes when it runs without an error). nbgrader replaces ev
 a submission cannot edit its own checks.
 
   python -m stair_lite.course student [--out student]
-  python -m stair_lite.course grade SUBMISSIONS [--out grades.csv]
+  python -m stair_lite.course grade SUBMISSIONS [--out grades.csv] [--timeout 600] [--notebook-timeout 3600]
 
-SUBMISSIONS holds one folder per student with that student's notebooks (any subset of the six).
+SUBMISSIONS holds one folder per student with that student's notebooks (any subset of the course's). Each
+submitted notebook is first read by the tripwire (``course_guard``: code that reaches for the grader is refused),
+then graded in its own process and copy of the course folder (as root: in its own mount and process namespaces,
+every folder but its own read-only, no capabilities), with a memory limit and time limits; one that cannot be graded gets its row with 0 points and the reason.
 """
 from __future__ import annotations
 
 import argparse
 import contextlib
 import csv
+import functools
 import os
 import shutil
+import signal
+import subprocess
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -25,6 +31,8 @@ from pathlib import Path
 
 import nbformat
 import nbformat.validator
+
+from .course_guard import tampering
 
 NOTEBOOK_DIR = Path(__file__).resolve().parent.parent / "notebooks"
 ASSIGNMENT = "stair_lite"  # nbgrader's name for the course's one assignment: the six notebooks
@@ -37,7 +45,7 @@ def _notebooks(notebooks) -> list[Path]:
     return sorted(NOTEBOOK_DIR.glob("*.ipynb")) if notebooks is None else [Path(n) for n in notebooks]
 
 
-def _api(root: Path):
+def _api(root: Path, cell_timeout_s: int = CELL_TIMEOUT_S):
     """nbgrader's API on a course folder ``root`` with its own gradebook."""
     from nbgrader.apps import NbGraderAPI
     from traitlets.config import Config
@@ -47,8 +55,8 @@ def _api(root: Path):
     config = Config()
     config.CourseDirectory.root = str(root)
     config.CourseDirectory.db_url = f"sqlite:///{root / 'gradebook.db'}"
-    config.ExecutePreprocessor.timeout = CELL_TIMEOUT_S
-    config.Execute.timeout = CELL_TIMEOUT_S
+    config.ExecutePreprocessor.timeout = cell_timeout_s
+    config.Execute.timeout = cell_timeout_s
     return NbGraderAPI(config=config)
 
 
@@ -79,23 +87,6 @@ def _prepare_for_students(path: Path) -> None:
     nbformat.write(nb, path)
 
 
-@contextlib.contextmanager
-def _static_widgets():
-    """While grading, the kernels show widgets as their static figures (``widgets.STATIC_ONLY``): nbgrader's
-    notebook runner can stall for a whole cell timeout after a cell that displays a live widget."""
-    from .widgets import STATIC_ONLY
-
-    before = os.environ.get(STATIC_ONLY)
-    os.environ[STATIC_ONLY] = "1"  # the kernels nbgrader starts inherit this process's environment
-    try:
-        yield
-    finally:
-        if before is None:
-            os.environ.pop(STATIC_ONLY)
-        else:
-            os.environ[STATIC_ONLY] = before
-
-
 def student_release(out: str | Path, notebooks: list[Path] | None = None) -> list[Path]:
     """Write the student edition of the notebooks into ``out``: no solution code, no outputs. Returns the files."""
     notebooks = _notebooks(notebooks)
@@ -114,68 +105,200 @@ def student_release(out: str | Path, notebooks: list[Path] | None = None) -> lis
 
 @dataclass(frozen=True)
 class Grade:
-    """One student's points on one notebook."""
+    """One student's points on one notebook; ``reason`` says why a notebook was not graded by its checks."""
 
     student: str
     notebook: str
     score: float
     max_score: float
     failed: tuple[str, ...]  # the graded cells that did not pass
+    reason: str = ""
 
 
-def grade(submissions: str | Path, notebooks: list[Path] | None = None, keep: str | Path | None = None) -> list[Grade]:
+@dataclass(frozen=True)
+class Limits:
+    """What one submitted notebook may take: each cell, the whole notebook (its own process), memory."""
+
+    cell_timeout_s: int = CELL_TIMEOUT_S
+    notebook_timeout_s: int = 3600
+    memory_gb: float = 16.0
+
+    def __post_init__(self):
+        for name, low in (("cell_timeout_s", 1), ("notebook_timeout_s", 1), ("memory_gb", 1)):
+            if not getattr(self, name) >= low:
+                raise ValueError(f"{name} must be at least {low}, got {getattr(self, name)}")
+
+
+def _checks(notebook: Path) -> dict[str, float]:
+    """The graded cells of a source notebook: grade id -> points."""
+    cells = nbformat.read(notebook, as_version=4).cells
+    return {c.metadata["nbgrader"]["grade_id"]: c.metadata["nbgrader"]["points"] for c in cells
+            if c.metadata.get("nbgrader", {}).get("grade")}
+
+
+# Run as root inside new mount and process namespaces: every mount but /proc, /sys and /dev read-only except the
+# submission's own folder, then every capability dropped (so nothing can remount), then the grading command.
+CONFINE = r"""work="$1"; shift
+mount --bind "$work" "$work" || exit 97
+awk '{print $2}' /proc/self/mounts | while read -r m; do
+  case "$m" in /proc|/proc/*|/sys|/sys/*|/dev|/dev/*|"$work") ;; *) mount -o remount,bind,ro "$m" 2>/dev/null ;; esac
+done
+if touch "$work/../.writable" 2>/dev/null; then echo "confinement failed: $work/.. is writable" >&2; exit 97; fi
+exec setpriv --bounding-set -all --inh-caps -all --no-new-privs "$@"
+"""
+
+
+@functools.cache
+def confinement() -> list[str]:
+    """The command prefix that confines a submission's grading (``CONFINE`` under ``unshare``), or [] where this
+    machine does not allow it (not root, or no namespaces): then it runs in its own process and folder, with the
+    limits, but with the grader's rights."""
+    if os.geteuid() != 0 or not (shutil.which("unshare") and shutil.which("setpriv")):
+        return []
+    prefix = ["unshare", "--mount", "--propagation", "private", "--pid", "--fork", "--mount-proc"]
+    with tempfile.TemporaryDirectory(prefix="stair_confine_") as folder:
+        probe = subprocess.run([*prefix, "sh", "-c", CONFINE, "confine", folder, "true"], capture_output=True)
+    return [*prefix, "sh", "-c", CONFINE, "confine"] if probe.returncode == 0 else []
+
+
+def _limit_memory(limits: Limits):
+    """What the grading process of one submission does before it starts: its own session (so that it and its kernel
+    can be stopped together) and the memory limit."""
+    import resource
+
+    def limit():
+        os.setsid()
+        size = int(limits.memory_gb * 2**30)
+        resource.setrlimit(resource.RLIMIT_AS, (size, size))
+    return limit
+
+
+def _failure_reason(returncode: int, log: str, limits: Limits) -> str:
+    """Why nbgrader could not grade a notebook, in one line."""
+    if "CellTimeoutError" in log or "Timeout waiting for execute reply" in log or "timed out" in log:
+        return f"a cell ran past the cell limit of {limits.cell_timeout_s} s"
+    if "DeadKernelError" in log or "Kernel died" in log:
+        return "the notebook's kernel died (a crash, an exit, or the memory limit)"
+    if "MemoryError" in log:
+        return f"the notebook ran past the memory limit of {limits.memory_gb:g} GB"
+    last = [line for line in log.strip().splitlines() if line.strip()][-1:] or [f"exit status {returncode}"]
+    return f"nbgrader could not grade it: {last[0].strip()[:200]}"
+
+
+def _grade_isolated(course: Path, work: Path, student: str, submitted: Path, limits: Limits, keep: Path | None):
+    """Autograde one submitted notebook in its own copy of the course folder, in its own confined process
+    (``confinement``) with the limits: returns ((points, max points, failed checks), "") or (None, reason)."""
+    from nbgrader.api import Gradebook, MissingEntry
+
+    shutil.copytree(course, work)
+    target = work / "submitted" / student / ASSIGNMENT
+    target.mkdir(parents=True)
+    shutil.copy(submitted, target / submitted.name)
+    for folder in ("home", "tmp"):
+        (work / folder).mkdir()
+    from .widgets import STATIC_ONLY
+
+    # the kernel shows widgets as their static figures: nbgrader's runner can stall a whole cell timeout on a live one
+    env = {**os.environ, STATIC_ONLY: "1", "HOME": str(work / "home"), "TMPDIR": str(work / "tmp"), "MPLCONFIGDIR": str(work / "home"),
+           "JUPYTER_RUNTIME_DIR": str(work / "home"), "IPYTHONDIR": str(work / "home")}
+    code = f"from stair_lite.course import _autograde_here; _autograde_here({str(work)!r}, {student!r}, {limits.cell_timeout_s})"
+    child = subprocess.Popen([*confinement(), str(work), sys.executable, "-c", code] if confinement() else
+                             [sys.executable, "-c", code], cwd=work, env=env, stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT, text=True, preexec_fn=_limit_memory(limits))
+    try:
+        log, _ = child.communicate(timeout=limits.notebook_timeout_s)
+    except subprocess.TimeoutExpired:
+        log = f"the notebook ran past the notebook limit of {limits.notebook_timeout_s} s"
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(child.pid, signal.SIGKILL)  # the child, its kernel and whatever they started
+        child.wait()
+    if keep is not None and (work / "autograded" / student).is_dir():
+        shutil.copytree(work / "autograded" / student, keep / student, dirs_exist_ok=True)
+    if child.returncode != 0:
+        reason = log if log.startswith("the notebook ran past") else _failure_reason(child.returncode, log, limits)
+        return None, reason
+    with Gradebook(f"sqlite:///{work / 'gradebook.db'}") as gb:
+        try:
+            sub = gb.find_submission_notebook(submitted.stem, ASSIGNMENT, student)
+        except MissingEntry:
+            return None, "nbgrader recorded no grade for it"
+        failed = tuple(sorted(g.name for g in sub.grades if g.max_score > 0 and g.score < g.max_score))
+        outcome = (sub.score, sub.max_score, failed)
+    executed = nbformat.read(work / "autograded" / student / ASSIGNMENT / submitted.name, as_version=4)
+    stops = {o.get("ename") for c in executed.cells for o in c.get("outputs", []) if o.get("output_type") == "error"}
+    if "CellTimeoutError" in stops:
+        return outcome, f"a cell ran past the cell limit of {limits.cell_timeout_s} s (stopped; the cells after it ran)"
+    if "DeadKernelError" in stops:
+        return outcome, "the notebook's kernel died (a crash, an exit, or the memory limit)"
+    return outcome, ""
+
+
+def _autograde_here(root: str, student: str, cell_timeout_s: int) -> None:
+    """In the confined grading process: let nbgrader execute the student's notebook with the graded cells restored."""
+    result = _api(Path(root), cell_timeout_s).autograde(ASSIGNMENT, student, force=True, create=True)
+    if not result["success"]:
+        print(f"{result['log']}\n{result.get('error', '')}")
+        sys.exit(1)
+
+
+def grade(submissions: str | Path, notebooks: list[Path] | None = None, keep: str | Path | None = None,
+          limits: Limits = Limits()) -> list[Grade]:
     """Autograde every student folder in ``submissions`` against the source notebooks (executed by nbgrader with
-    the graded cells restored from the source). ``keep``: a folder for the executed submissions."""
-    from nbgrader.api import MissingEntry
-
+    the graded cells restored from the source), each notebook in its own confined process (``_grade_isolated``)
+    after the tripwire (``course_guard``) has read it. A notebook that cannot be graded gets its row with 0 points
+    and the reason; the others are graded. ``keep``: a folder for the executed submissions."""
     notebooks = _notebooks(notebooks)
     submissions = Path(submissions)
-    students = sorted(p for p in submissions.iterdir() if p.is_dir()) if submissions.is_dir() else []
+    if not submissions.is_dir():
+        raise ValueError(f"no submissions folder {submissions}: expected {submissions}/<student>/<notebook>.ipynb")
+    students = sorted(p for p in submissions.iterdir() if p.is_dir())
     if not students:
         raise ValueError(f"{submissions} holds no student folders: expected {submissions}/<student>/<notebook>.ipynb")
-    known = {nb.name for nb in notebooks}
+    sources = {nb.name: nb for nb in notebooks}
+    keep = None if keep is None else Path(keep)
     grades = []
     with tempfile.TemporaryDirectory(prefix="stair_course_") as tmp:
-        root = Path(tmp)
-        api = _generate(root, notebooks)
+        course = Path(tmp) / "course"
+        _generate(course, notebooks)
         for folder in students:
             files = sorted(folder.glob("*.ipynb"))
-            strangers = [f.name for f in files if f.name not in known]
-            if strangers or not files:
-                raise ValueError(f"{folder} holds {strangers or 'no notebooks'}; a submission holds notebooks named "
-                                 f"as the course's: {sorted(known)}")
-            target = root / "submitted" / folder.name / ASSIGNMENT
-            target.mkdir(parents=True)
-            for f in files:
-                shutil.copy(f, target / f.name)
-            with _static_widgets():
-                result = api.autograde(ASSIGNMENT, folder.name, force=True, create=True)
-            if not result["success"]:
-                raise RuntimeError(f"nbgrader could not grade {folder}:\n{result['log']}\n{result.get('error', '')}")
-        with api.gradebook as gb:
-            for folder in students:
-                submitted = {f.name for f in folder.glob("*.ipynb")}
-                for nb in notebooks:
-                    if nb.name not in submitted:
-                        continue
-                    try:
-                        sub = gb.find_submission_notebook(nb.stem, ASSIGNMENT, folder.name)
-                    except MissingEntry:
-                        raise RuntimeError(f"nbgrader recorded no grade for {folder.name}/{nb.name}") from None
-                    failed = tuple(sorted(g.name for g in sub.grades if g.max_score > 0 and g.score < g.max_score))
-                    grades.append(Grade(folder.name, nb.name, sub.score, sub.max_score, failed))
-        if keep is not None:
-            shutil.copytree(root / "autograded", Path(keep), dirs_exist_ok=True)
+            if not files:
+                grades.append(Grade(folder.name, "", 0, 0, (), f"no notebooks in {folder}"))
+            for file in files:
+                grades.append(_grade_one(course, Path(tmp) / "work" / f"{len(grades)}", folder.name, file,
+                                         sources.get(file.name), sorted(sources), limits, keep))
     return grades
+
+
+def _grade_one(course, work, student, file, source, known, limits, keep) -> Grade:
+    """One student's notebook: refused with its reason, or graded in isolation."""
+    if source is None:
+        return Grade(student, file.name, 0, 0, (), f"not a notebook of the course (expected one of {', '.join(known)})")
+    checks = _checks(source)
+    ungraded = lambda reason: Grade(student, file.name, 0, sum(checks.values()), tuple(sorted(checks)), reason)  # noqa: E731
+    try:
+        submitted = nbformat.read(file, as_version=4)
+        nbformat.validate(submitted)
+    except Exception as err:  # a text file, a truncated notebook, another format: whatever nbformat says
+        return ungraded(f"not a readable notebook: {str(err).splitlines()[0][:200]}")
+    code = lambda nb: [c.source for c in nb.cells if c.cell_type == "code"]  # noqa: E731
+    found = tampering(code(submitted), code(nbformat.read(source, as_version=4)))
+    if found:
+        return ungraded("refused, code that reaches for the grader: " + "; ".join(found[:3]))
+    outcome, reason = _grade_isolated(course, work, student, file, limits, keep)
+    if outcome is None:
+        return ungraded(reason)
+    return Grade(student, file.name, *outcome, reason)
 
 
 def write_table(grades: list[Grade], path: str | Path) -> None:
     """The points as CSV: one row per student and notebook."""
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(["student", "notebook", "score", "max_score", "failed_checks"])
+        writer.writerow(["student", "notebook", "score", "max_score", "failed_checks", "reason"])
         for g in grades:
-            writer.writerow([g.student, g.notebook, g.score, g.max_score, " ".join(g.failed)])
+            writer.writerow([g.student, g.notebook, g.score, g.max_score, " ".join(g.failed), g.reason])
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -186,17 +309,29 @@ def main(argv: list[str] | None = None) -> None:
     p = sub.add_parser("grade", help="autograde a folder of submissions (one folder per student)")
     p.add_argument("submissions")
     p.add_argument("--out", default="grades.csv")
+    p.add_argument("--timeout", type=int, default=CELL_TIMEOUT_S, help="seconds a cell may run (default %(default)s)")
+    p.add_argument("--notebook-timeout", type=int, default=Limits.notebook_timeout_s,
+                   help="seconds a whole notebook may run (default %(default)s)")
+    p.add_argument("--memory-gb", type=float, default=Limits.memory_gb,
+                   help="address space of a notebook's process and kernel (default %(default)s)")
     args = parser.parse_args(argv)
+    # a terminated grading unwinds like Ctrl-C: the running notebook is stopped and the temporary folders go
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     if args.command == "student":
         for path in student_release(args.out):
             print(f"wrote {path}")
         return
-    grades = grade(args.submissions)
+    try:
+        limits = Limits(args.timeout, args.notebook_timeout, args.memory_gb)
+        grades = grade(args.submissions, limits=limits)
+    except ValueError as err:
+        parser.exit(2, f"error: {err}\n")
     write_table(grades, args.out)
     width = max(len(g.student) for g in grades)
     for g in grades:
         failed = f"  failed: {', '.join(g.failed)}" if g.failed else ""
-        print(f"{g.student:<{width}}  {g.notebook:<32} {g.score:g} / {g.max_score:g}{failed}")
+        why = f"  ({g.reason})" if g.reason else ""
+        print(f"{g.student:<{width}}  {g.notebook:<32} {g.score:g} / {g.max_score:g}{failed}{why}")
     print(f"wrote {args.out}")
 
 

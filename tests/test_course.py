@@ -127,7 +127,7 @@ def test_grading_gives_full_points_to_the_solutions_and_fewer_to_a_wrong_answer(
     assert "closest test view" in "".join(o.get("text", "") for o in last_code.outputs)  # it ran, on the reference
     table = tmp_path / "grades.csv"
     course.write_table(list(grades.values()), table)
-    assert table.read_text().splitlines()[0] == "student,notebook,score,max_score,failed_checks"
+    assert table.read_text().splitlines()[0] == "student,notebook,score,max_score,failed_checks,reason"
 
 
 # Per notebook after the first: one answer deliberately wrong (grade id -> the solution's line and its mistake) and,

@@ -21,6 +21,7 @@ import stair_lite  # noqa: F401  (sets the offscreen platform before pyrender lo
 
 from .classes import CLASS_NAMES
 from .config import PRESETS, SEED_LIMIT
+from .experiments import WORKER_TIMEOUT_S
 from .maps import MAP_KINDS
 from .planners import PLANNERS, REPLAY
 from .segmenter import LABEL_NOISE
@@ -73,10 +74,11 @@ def _cmd_fit(args):
     from .mission import World, build_map
     from .results_folder import make_output_folder
 
+    for name, most in (("iterations", 20000), ("rays", 65536), ("views", 500)):  # the paper: 200, 8000, 10
+        value = getattr(args, name)
+        if value is not None and not 1 <= value <= most:
+            raise ValueError(f"--{name} must be between 1 and {most}, got {value}")
     out = make_output_folder(args.out) if args.out else None  # before training: a bad folder costs nothing
-    for name in ("iterations", "rays", "views"):
-        if getattr(args, name) is not None and getattr(args, name) < 1:
-            raise ValueError(f"--{name} must be at least 1, got {getattr(args, name)}")
     preset = get_preset(args.preset)
     if args.iterations is not None:
         preset = replace(preset, train=replace(preset.train, iterations_per_view=args.iterations))
@@ -189,17 +191,22 @@ def _cmd_sweep(args):
     signal.signal(signal.SIGTERM, _interrupt)  # a terminated sweep stops its workers like Ctrl-C
     try:
         outcomes = run_sweep(spec, args.out, workers=args.workers, progress=not args.quiet, device=args.device,
-                             scheduler=args.scheduler)
+                             scheduler=args.scheduler, worker_timeout_s=args.worker_timeout, log=_warn)
     except KeyboardInterrupt:
         print("\ninterrupted: finished cells are kept; run the same command again to continue", file=sys.stderr)
         return 130
-    ran = sum(1 for _, o in outcomes if o != "finished before")
-    for cell, outcome in outcomes:
-        if outcome.startswith(("failed", "not run")):
-            print(f"{cell.scene}/{cell.variant}/seed{cell.seed}: {outcome}", file=sys.stderr)
-    print(f"{ran} cells run in {time.perf_counter() - start:.0f} s, {len(outcomes) - ran} were finished before")
+    before = sum(1 for _, o in outcomes if o == "finished before")
+    failed = [(cell, o) for cell, o in outcomes if o.startswith(("failed", "not run"))]
+    for cell, outcome in failed:
+        print(f"{cell.scene}/{cell.variant}/seed{cell.seed}: {outcome}", file=sys.stderr)
+    print(f"{len(outcomes) - before - len(failed)} cells run in {time.perf_counter() - start:.0f} s, {before} were "
+          f"finished before" + (f", {len(failed)} failed or not run: run the same command again to redo them"
+                                if failed else ""))
     args.results = args.out
-    return _cmd_report(args)
+    if len(failed) == len(outcomes):
+        return 1
+    report = _cmd_report(args)
+    return 1 if failed else report
 
 
 def _interrupt(signum, frame):
@@ -220,18 +227,22 @@ def _cmd_report(args):
     from .experiments import collect, summary, write_table
     from .metrics import METRICS
     from .plotting import plot_sweep_curves
+    from .results_folder import written_whole
 
     root = Path(args.results)
     rows = collect(root, log=_warn)
     if not rows:
         raise ValueError(f"no finished mission results under {root}")
-    table = write_table(rows, root / "results.csv")
     metrics = metrics_of(rows)
+    with written_whole(root / "results.csv") as path:  # a full disk leaves the former file, not a cut one
+        write_table(rows, path)
     for metric in metrics:
         axes = plot_sweep_curves(rows, metric, ylabel=METRICS[metric].label)
         axes[0].figure.tight_layout()
-        axes[0].figure.savefig(root / f"curves_{metric}.png", dpi=90)
-    plt.close("all")
+        with written_whole(root / f"curves_{metric}.png") as path:
+            axes[0].figure.savefig(path, dpi=90, format="png")
+        plt.close("all")
+    table = root / "results.csv"
     scale = {m: METRICS[m].report_scale for m in metrics}
     print("area under each curve (the mean over the steps), mean +- std over seeds"
           + "".join(f"; {m} x {s:g}" for m, s in scale.items() if s != 1))
@@ -245,7 +256,7 @@ def _cmd_report(args):
 
 def _cmd_claims(args):
     from .claims import markdown_report
-    from .experiments import collect
+    from .experiments import EPSILON_PREFIX, collect
 
     rows = collect(args.results, log=_warn)
     if not rows:
@@ -253,6 +264,10 @@ def _cmd_claims(args):
     ablation = collect(args.ablation, log=_warn) if args.ablation else None
     if args.ablation and not ablation:
         raise ValueError(f"no finished mission results under {args.ablation}")
+    others = sorted({r["variant"] for r in ablation or [] if not r["variant"].startswith(EPSILON_PREFIX)})
+    if others:
+        raise ValueError(f"--ablation {args.ablation} holds the variants {others}: an epsilon ablation holds only "
+                         "stair_eps<value> variants (e.g. data/results/ablation_hidden_chair_lite)")
     print(markdown_report(rows, ablation))
     return 0
 
@@ -273,13 +288,15 @@ def _cmd_headroom(args):
     from .experiments import PAPER_SCENES
     import json
 
-    from .headroom import Headroom, add_utilities, measure_headroom, print_headroom, ranking_planners
-    from .results_folder import make_output_folder
+    from .headroom import Headroom, add_utilities, check_headroom_size, measure_headroom, print_headroom, ranking_planners
+    from .results_folder import make_output_folder, written_whole
     from .plotting import plot_headroom
 
-    out = make_output_folder(args.out)
     scenes = PAPER_SCENES if args.scene == "all" else tuple(args.scene.split(","))
     afters = _whole_numbers("--after", args.after)
+    for after in afters:
+        check_headroom_size(after, args.candidates, args.streams)
+    out = make_output_folder(args.out)
     utilities = tuple(args.utilities.split(",")) if args.utilities else None
     for scene in scenes:
         for after in afters:
@@ -297,17 +314,26 @@ def _cmd_headroom(args):
                 print_headroom(result)
                 print(f"added {', '.join(missing)} to {stem}.csv, .json")
                 continue
-            result = measure_headroom(scene, after, args.candidates, seed=args.seed, preset=args.preset,
-                                      utilities=utilities, streams=args.streams, device=args.device,
-                                      log=lambda line: None if args.quiet else print(line, flush=True))
+            progress = Path(f"{stem}.partial.jsonl")  # the views realised so far: a stopped run continues from them
+            try:
+                result = measure_headroom(scene, after, args.candidates, seed=args.seed, preset=args.preset,
+                                          utilities=utilities, streams=args.streams, device=args.device,
+                                          log=lambda line: None if args.quiet else print(line, flush=True),
+                                          progress=progress)
+            except KeyboardInterrupt:
+                print(f"interrupted: the views realised so far are kept in {progress}; run the same command again to "
+                      "continue", file=sys.stderr)
+                return 130
             command = (f"python -m stair_lite headroom --scene {scene} --after {after} --candidates {args.candidates} "
                        f"--seed {args.seed} --preset {args.preset} --streams {args.streams} "
                        + (f"--utilities {args.utilities} " if args.utilities else "") + f"--out {args.out}")
             stem = result.save(out, command)
             axes = plot_headroom(result)
             axes[0].figure.tight_layout()
-            axes[0].figure.savefig(stem.with_suffix(".png"), dpi=90)
+            with written_whole(stem.with_suffix(".png")) as path:
+                axes[0].figure.savefig(path, dpi=90, format="png")
             plt.close("all")
+            progress.unlink()
             print_headroom(Headroom.load(stem))
             print(f"wrote {stem}.csv, .json, .png")
     return 0
@@ -330,6 +356,17 @@ def _whole_numbers(option: str, text: str) -> tuple[int, ...]:
         raise ValueError(f"{option} takes whole numbers separated by commas, got {text!r}") from None
 
 
+def _seed(text: str) -> int:
+    """A seed option's value: a whole number from 0 to SEED_LIMIT - 1 (argparse names the option on an error)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a seed is a whole number, got {text!r}") from None
+    if not 0 <= value < SEED_LIMIT:
+        raise argparse.ArgumentTypeError(f"a seed is from 0 to {SEED_LIMIT - 1}, got {value}")
+    return value
+
+
 def _shared_options() -> dict[str, argparse.ArgumentParser]:
     """Parent parsers of the options several commands share, each defined once."""
     compute = argparse.ArgumentParser(add_help=False)
@@ -340,7 +377,7 @@ def _shared_options() -> dict[str, argparse.ArgumentParser]:
     preset = argparse.ArgumentParser(add_help=False)
     preset.add_argument("--preset", default="lite", choices=sorted(PRESETS))
     mission = argparse.ArgumentParser(add_help=False)
-    mission.add_argument("--seed", type=int, default=0)
+    mission.add_argument("--seed", type=_seed, default=0)
     mission.add_argument("--targets", default=None, help="comma-separated class names (default: the scene's)")
     return {"compute": compute, "labels": labels, "preset": preset, "mission": mission}
 
@@ -388,11 +425,13 @@ def main(argv=None):
     p.add_argument("--planners", default="all", help="'all', 'base' or comma-separated variants (e.g. stair,ste,stair_eps0.5,"
                    "path/to/file.py:ClassName)")
     p.add_argument("--seeds", type=int, default=5, help="number of seeds per cell")
-    p.add_argument("--first-seed", type=int, default=0)
+    p.add_argument("--first-seed", type=_seed, default=0)
     p.add_argument("--budget", type=int, default=None, help="measurements per mission (default: the preset's, 10)")
     p.add_argument("--workers", type=int, default=1, help="cells in parallel: N > 1 starts a local Dask cluster of N "
                    "single-threaded worker processes")
     p.add_argument("--scheduler", default=None, help="address of an existing Dask cluster (tcp://host:8786) to run the cells on")
+    p.add_argument("--worker-timeout", type=float, default=WORKER_TIMEOUT_S, help="seconds to wait for a worker while "
+                   "the cluster has none, then give up (default %(default)s)")
     p.add_argument("--out", default="runs/sweep")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_sweep)
@@ -409,7 +448,7 @@ def main(argv=None):
                    "the noise ceiling)")
     p.add_argument("--utilities", default=None, help="comma-separated planners whose utility and pick are measured, "
                    "registered or path/to/file.py:ClassName (default: every registered planner with a utility)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=_seed, default=0)
     p.add_argument("--again", action="store_true", help="measure a table anew even if --out holds it (by default a "
                    "stored table is kept, and utilities it lacks are added to it)")
     p.add_argument("--out", default="runs/headroom")

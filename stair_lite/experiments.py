@@ -17,6 +17,7 @@ import csv
 import hashlib
 import json
 import os
+import time
 import uuid
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -30,11 +31,13 @@ from .mission import Mission, MissionConfig
 from .planners import PLANNERS, REPLAY, is_planner_file, paper_planners, planner_class, planner_file_hash
 from .results_folder import (FORMAT, METRICS_FILE, FolderInUseError, ResultsFolderError, make_output_folder,
                              upgrade_header, write_json_atomically)
-from .scenes import list_scenes, scene_content_hash, scene_key
+from .scenes import scene_content_hash, scene_key, scene_path
 from .segmenter import EXACT, label_noise
 
 PAPER_SCENES = ("scene1", "scene2", "scene3", "scene4")
 SWEEP_FILE = "sweep.json"
+CONNECT_TIMEOUT_S = 20  # to reach a scheduler (an address that is no Dask scheduler answers nothing, or nonsense)
+WORKER_TIMEOUT_S = 300  # how long a sweep waits for a worker when its cluster has none
 RESULTS_DIR = Path(__file__).resolve().parent.parent / "data" / "results"  # the stored sweeps
 
 
@@ -191,10 +194,8 @@ class SweepSpec:
 
     def __post_init__(self):
         label_noise(self.label_noise)
-        known = set(list_scenes())
-        bad = [s for s in self.scenes if s not in known and not (Path(s).suffix == ".json" and Path(s).is_file())]
-        if bad:
-            raise ValueError(f"unknown scenes {bad}: neither shipped ({', '.join(sorted(known))}) nor scene files")
+        for scene in self.scenes:
+            scene_path(scene)  # a shipped name or a regular scene file of sane size, else the reason
         keys = [scene_key(s) for s in self.scenes]
         if len(set(keys)) < len(keys):
             raise ValueError(f"two scenes of {list(self.scenes)} would share a results folder (a scene file is stored "
@@ -289,7 +290,8 @@ def replay_source(cell: Cell) -> Cell | None:
 
 
 def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: bool = True, log=print,
-              device: str = "cpu", scheduler: str | None = None) -> list[tuple[Cell, str]]:
+              device: str = "cpu", scheduler: str | None = None,
+              worker_timeout_s: float = WORKER_TIMEOUT_S) -> list[tuple[Cell, str]]:
     """Run every unfinished cell, each mission on ``device``; returns what happened to each cell.
 
     ``workers`` <= 1 and no ``scheduler``: one cell after another in this process. ``workers`` N > 1: on a
@@ -335,14 +337,21 @@ def run_sweep(spec: SweepSpec, root: str | Path, workers: int = 1, progress: boo
     try:
         if workers <= 1 and scheduler is None:
             while (c := release()) is not None:  # one torch thread, as a cluster's workers: float sums depend on it
-                done(run_cell(c, str(root), spec.preset, spec.budget, 1, device, spec.label_noise))
+                try:
+                    done(run_cell(c, str(root), spec.preset, spec.budget, 1, device, spec.label_noise))
+                except Exception as err:  # as on a cluster: the cell is reported, the others run
+                    done((c, f"failed ({type(err).__name__}: {err}); run the sweep again to redo it"))
         else:
             with dask_client(workers, scheduler) as client:
-                run_on_cluster(client, release, done, root, spec, device)
+                run_on_cluster(client, release, done, root, spec, device, log, worker_timeout_s)
     finally:
         bar.close()
     outcomes += [(c, f"not run: the cell it replays ({replay_source(c).variant}) failed") for c in waiting]
     return outcomes
+
+
+class ClusterError(ValueError):
+    """The Dask cluster cannot run the sweep's cells: no scheduler at the address, no workers, or the scheduler lost."""
 
 
 class dask_client:
@@ -360,18 +369,26 @@ class dask_client:
         from dask.distributed import Client, LocalCluster
 
         self.cluster, self.environ = None, dict(os.environ)
-        with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        # Dask logs its own tracebacks when a scheduler misbehaves or goes away; the sweep says it in one line instead
+        logging.getLogger("distributed").setLevel(logging.CRITICAL)
+        with dask.config.set({"distributed.scheduler.allowed-failures": 0,
+                              "distributed.comm.timeouts.connect": f"{CONNECT_TIMEOUT_S}s"}):
             if self.scheduler is None:
                 self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
                                             dashboard_address=":0", silence_logs=logging.ERROR)
-            self.client = Client(self.scheduler or self.cluster)
+                self.client = Client(self.cluster)
+            else:
+                self.client = _connect(Client, self.scheduler)
         if self.cluster is not None:
             self.client.run(_quiet_worker)
         self._restore_environment()
         return self.client
 
     def __exit__(self, *exc):
-        self.client.close()
+        import contextlib
+
+        with contextlib.suppress(Exception):  # a scheduler that is gone cannot be told goodbye
+            self.client.close(timeout=CONNECT_TIMEOUT_S)
         if self.cluster is not None:
             self.cluster.close()  # stops the worker processes, also on Ctrl-C
         self._restore_environment()
@@ -381,6 +398,31 @@ class dask_client:
         undo it, or every process started from here later (a notebook kernel) runs on one thread."""
         os.environ.clear()
         os.environ.update(self.environ)
+
+
+def _connect(client_class, address: str):
+    """A client of the scheduler at ``address``, or ``ClusterError`` within ``CONNECT_TIMEOUT_S``: Dask's own timeout
+    does not hold against a server that accepts and never answers, or answers another protocol (HTTP), so the
+    connection is made in a thread that is given up on."""
+    import threading
+
+    outcome = {}
+
+    def connect():
+        try:
+            outcome["client"] = client_class(address, timeout=CONNECT_TIMEOUT_S)
+        except BaseException as err:  # refused, or not speaking Dask's protocol (then any error at all)
+            outcome["error"] = err
+
+    thread = threading.Thread(target=connect, daemon=True)
+    thread.start()
+    thread.join(CONNECT_TIMEOUT_S + 1)
+    if "client" in outcome:
+        return outcome["client"]
+    err = outcome.get("error")
+    why = f"{type(err).__name__}: {str(err)[:160]}" if err is not None else "no answer"
+    raise ClusterError(f"no Dask scheduler answers at {address} within {CONNECT_TIMEOUT_S} s ({why}); start one with "
+                       "`dask scheduler` and give its address, tcp://host:8786")
 
 
 def _quiet_worker() -> None:
@@ -395,16 +437,29 @@ def _quiet_worker() -> None:
     logging.getLogger("distributed").setLevel(logging.CRITICAL)
 
 
-def run_on_cluster(client, release, done, root: Path, spec: SweepSpec, device: str) -> None:
+def _threads(client, address) -> int:
+    """The cluster's worker threads now (a scheduler that is gone: ``ClusterError``)."""
+    try:
+        return sum(client.nthreads().values())
+    except Exception as err:
+        raise ClusterError(f"lost the Dask scheduler at {address} ({type(err).__name__}); the finished cells are kept, "
+                           "run the sweep again once it is back") from None
+
+
+def run_on_cluster(client, release, done, root: Path, spec: SweepSpec, device: str, log=print,
+                   worker_timeout_s: float = WORKER_TIMEOUT_S) -> None:
     """Submit released cells to the cluster and collect them as they finish (see ``run_sweep``). No more
     cells are in flight than the cluster has worker threads, so a worker holds only the cell it runs and
-    a dead worker fails that one cell."""
+    a dead worker fails that one cell. A cluster without workers is waited for ``worker_timeout_s`` (said once),
+    then given up with ``ClusterError``."""
     from dask.distributed import as_completed
 
+    address = client.scheduler.address
     cell_of, queue = {}, as_completed()
+    without_workers = None  # since when the cluster has had no worker
 
-    def fill() -> None:
-        for _ in range(max(1, sum(client.nthreads().values())) - queue.count()):
+    def fill(threads: int) -> None:
+        for _ in range(threads - queue.count()):
             c = release()
             if c is None:
                 return
@@ -413,44 +468,84 @@ def run_on_cluster(client, release, done, root: Path, spec: SweepSpec, device: s
             cell_of[future] = c
             queue.add(future)
 
-    fill()
-    for future in queue:
-        try:
-            outcome = future.result()
-        except Exception as err:  # the cell raised, or its worker died (KilledWorker)
-            outcome = (cell_of[future], f"failed ({type(err).__name__}: {err}); run the sweep again to redo it")
-        done(outcome)
-        fill()
+    while True:
+        threads = _threads(client, address)
+        if threads:
+            without_workers = None
+            fill(threads)
+        elif without_workers is None:
+            without_workers = time.monotonic()
+            log(f"waiting for a worker: the Dask cluster at {address} has none (giving up after {worker_timeout_s:.0f} s)")
+        elif time.monotonic() - without_workers > worker_timeout_s:
+            raise ClusterError(f"the Dask cluster at {address} has had no worker for {worker_timeout_s:.0f} s; start "
+                               f"workers (`dask worker {address} --nthreads 1`) and run the sweep again: the finished "
+                               "cells are kept")
+        if queue.is_empty():
+            if threads:
+                return  # nothing left to release
+            time.sleep(0.5)
+            continue
+        for future in queue.next_batch(block=False) if queue.has_ready() else ():
+            try:
+                outcome = future.result()
+            except Exception as err:  # the cell raised, or its worker died (KilledWorker)
+                outcome = (cell_of[future], f"failed ({type(err).__name__}: {err}); run the sweep again to redo it")
+            done(outcome)
+        time.sleep(0.2)
+
+
+def _folder_study(root: Path) -> dict | None:
+    """What a results folder's cells must share (preset, label noise): its sweep.json's, else None (the first cell
+    then sets it)."""
+    sweep_file = root / SWEEP_FILE
+    if not sweep_file.exists():
+        return None
+    try:
+        stored = json.loads(sweep_file.read_text())
+        return {"budget": int(stored["budget"]), "preset": stored["preset"], "label_noise": stored.get("label_noise", EXACT)}
+    except (ValueError, KeyError, TypeError) as err:
+        raise ValueError(f"{sweep_file} is unreadable ({type(err).__name__}: {err}); restore it from the repository "
+                         "or delete it (then the first finished cell sets the folder's preset)") from None
 
 
 def collect(root: str | Path, log=print) -> list[dict]:
-    """One row per (scene, variant, seed, step) from every finished, readable cell under ``root``
-    (a cell still running, with fewer steps than the sweep's budget, is left out)."""
+    """One row per (scene, variant, seed, step) from every finished, readable cell under ``root`` (a cell still
+    running, with fewer steps than the sweep's budget, is left out). Cells of another preset or label noise than
+    the folder's (its sweep.json, else its first cell) are reported and left out: a study never mixes them."""
     rows = []
-    sweep_file = Path(root) / SWEEP_FILE
-    budget = json.loads(sweep_file.read_text())["budget"] if sweep_file.exists() else 1
-    for path in sorted(Path(root).glob(f"*/*/seed*/{METRICS_FILE}")):
+    root = Path(root)
+    study = _folder_study(root)
+    for path in sorted(root.glob(f"*/*/seed*/{METRICS_FILE}")):
         scene, variant_name, seed = path.parts[-4], path.parts[-3], int(path.parts[-2][4:])
         try:
             stored = json.loads(path.read_text())
-            steps = stored["steps"]
-        except (json.JSONDecodeError, KeyError, UnicodeDecodeError) as err:
-            log(f"skipping unreadable {path}: {err}")
-            continue
-        if len(steps) < budget:
-            log(f"skipping unfinished {path} ({len(steps)} of {budget} steps)")
-            continue
-        planner = stored.get("config", {}).get("planner", "")
-        scores = PLANNERS[planner].cls.score_columns if planner in PLANNERS else score_columns()
-        for r in steps:
-            rows.append({
+            config, steps = stored["config"], stored["steps"]
+            mine = {"preset": config["preset"], "label_noise": config.get("label_noise", EXACT)}
+            if study is None:
+                study = {"budget": len(steps), **mine}
+                log(f"{root} has no {SWEEP_FILE}: its cells must share the first one's preset {mine['preset']} and "
+                    f"label noise {mine['label_noise']}")
+            mixed = [f"{k} {mine[k]} (the folder's: {study[k]})" for k in mine if mine[k] != study[k]]
+            if mixed:
+                log(f"skipping {path}: another study's mission, {', '.join(mixed)}")
+                continue
+            if len(steps) < study["budget"]:
+                log(f"skipping unfinished {path} ({len(steps)} of {study['budget']} steps)")
+                continue
+            planner = config.get("planner", "")
+            scores = PLANNERS[planner].cls.score_columns if planner in PLANNERS else score_columns()
+            cell_rows = [{
                 "scene": scene, "variant": variant_name, "seed": seed, "step": r["step"],
                 **{k: r.get(k) for k in METRICS}, "loss": r["loss"],  # a metric registered after the mission ran: None
                 **{k: r.get(k) for k in scores},
                 "elevation_deg": r["view_deg"][0], "azimuth_deg": r["view_deg"][1],
                 "time_plan_s": r["time_s"]["plan"], "time_train_s": r["time_s"]["train"],
                 "time_evaluate_s": r["time_s"]["evaluate"],
-            })
+            } for r in steps]
+        except (ValueError, KeyError, TypeError, IndexError, UnicodeDecodeError) as err:  # not a mission's records
+            log(f"skipping unreadable {path}: {type(err).__name__}: {err}")
+            continue
+        rows += cell_rows
     return rows
 
 

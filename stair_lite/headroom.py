@@ -26,7 +26,7 @@ from .maps import IMPLICIT, ImplicitMap
 from .metrics import METRICS, compared_metrics
 from .mission import Mission, MissionConfig
 from .planners import PLANNERS, Planner, far_enough, make_planner
-from .results_folder import make_output_folder
+from .results_folder import make_output_folder, written_whole
 
 FORMER_METRICS = ("psnr", "psnr_clean", "f1", "f1_5cm", "chamfer")  # the metrics of tables stored without a list
 FORMER_UTILITIES = ("stair", "exploration", "max_distance")  # the utilities of tables stored without a list
@@ -77,14 +77,15 @@ class Headroom:
         """``<scene>_after<K>.csv`` (the rows) and ``.json`` (everything else) in ``folder``; returns the stem."""
         folder = make_output_folder(folder)
         stem = folder / f"{self.scene}_after{self.after}"
-        with stem.with_suffix(".csv").open("w", newline="") as f:
+        with written_whole(stem.with_suffix(".csv")) as path, path.open("w", newline="") as f:
             writer = csv.DictWriter(f, fieldnames=list(self.rows[0]))
             writer.writeheader()
             writer.writerows(self.rows)
         summary = {k: v for k, v in asdict(self).items() if k != "rows"}
         summary["pick_percentiles"] = {p: {m: self.pick_percentile(p, m) for m in self.metrics} for p in self.utilities}
         summary["command"] = command
-        stem.with_suffix(".json").write_text(json.dumps(summary, indent=1))
+        with written_whole(stem.with_suffix(".json")) as path:
+            path.write_text(json.dumps(summary, indent=1))
         return stem
 
     @classmethod
@@ -143,15 +144,41 @@ class MapAfter:
         return {name: metric.value(result, copy_of_map) for name, metric in METRICS.items()}
 
 
+MAX_CANDIDATES, MAX_STREAMS = 128, 8  # 16 candidates x 3 streams take about 8 minutes at lite on one core
+
+
+def check_headroom_size(after: int, n_candidates: int, streams: int) -> None:
+    """Refuse a table that cannot be measured, or not in a day, naming the values."""
+    if not (1 <= after and 2 <= n_candidates <= MAX_CANDIDATES and 1 <= streams <= MAX_STREAMS):
+        raise ValueError(f"need at least 1 view before, 2 to {MAX_CANDIDATES} candidates and 1 to {MAX_STREAMS} streams, "
+                         f"got after={after}, candidates={n_candidates}, streams={streams}")
+
+
+def _finished_rows(path: Path | None, header: dict) -> dict:
+    """The rows a stopped run of the same table left in ``path`` (one JSON line each after a header line), by job."""
+    if path is None or not path.exists():
+        return {}
+    lines = path.read_text().splitlines()
+    if not lines or json.loads(lines[0]) != header:
+        raise ValueError(f"{path} holds the finished views of another headroom table; delete it to start anew")
+    rows = {}
+    for line in lines[1:]:
+        try:
+            job, row = json.loads(line)
+        except ValueError:  # a line cut short by the interruption
+            break
+        rows[tuple(job)] = row
+    return rows
+
+
 def measure_headroom(scene: str, after: int, n_candidates: int, seed: int = 0, preset: str = "lite",
                      utilities: tuple[str, ...] | None = None, streams: int = 1, device: str = "cpu",
-                     log=print) -> Headroom:
+                     log=print, progress: Path | None = None) -> Headroom:
     """Run a seeded STAIR mission for ``after`` views, then realise ``n_candidates`` spread views (each with
     ``streams`` training streams) and the picks of the planners in ``utilities`` as the next view, each on a copy of
-    the map (see the module)."""
-    if after < 1 or n_candidates < 2 or streams < 1:
-        raise ValueError(f"need at least 1 view before, 2 candidates and 1 stream, got after={after}, "
-                         f"candidates={n_candidates}, streams={streams}")
+    the map (see the module). ``progress``: a file that keeps each realised view as it finishes, so that a stopped
+    run continues where it stopped (the caller deletes it once the table is saved)."""
+    check_headroom_size(after, n_candidates, streams)
     utilities = ranking_planners() if utilities is None else tuple(utilities)
     metrics = compared_metrics()
     state = MapAfter(scene, after, seed, preset, device)
@@ -164,14 +191,25 @@ def measure_headroom(scene: str, after: int, n_candidates: int, seed: int = 0, p
     scores = {name: p.utility(sources[name], views, state.visited, state.targets) for name, p in planners.items()}
     jobs = [(i, "spread", s) for s in range(streams) for i in range(len(spread))]
     jobs += [(len(spread) + j, name, 0) for j, name in enumerate(utilities)]
+    header = {"scene": scene, "after": after, "seed": seed, "preset": preset, "candidates": n_candidates,
+              "streams": streams, "utilities": list(utilities), "views": np.round(views, 9).tolist()}
+    finished = _finished_rows(progress, header)
+    if progress is not None and not finished:
+        progress.write_text(json.dumps(header) + "\n")
     rows = []
     for n, (i, kind, stream) in enumerate(jobs):
+        if (i, kind, stream) in finished:
+            rows.append(finished[(i, kind, stream)])
+            continue
         result = state.realise(views[i], stream)
         rows.append({"kind": kind, "stream": stream,
                      "elevation_deg": float(np.degrees(views[i][0])), "azimuth_deg": float(np.degrees(views[i][1])),
                      **{f"u_{u}": float(scores[u][i]) if scores[u] is not None else float("nan") for u in utilities},
                      **{m: float(result[m]) for m in metrics},
                      **{f"gain_{m}": METRICS[m].gain(state.before[m], float(result[m])) for m in metrics}})
+        if progress is not None:
+            with open(progress, "a") as f:
+                f.write(json.dumps([[i, kind, stream], rows[-1]]) + "\n")
         log(f"{scene} after {after}: view {n + 1}/{len(jobs)} ({kind}, stream {stream}) F1 gain {rows[-1]['gain_f1']:+.3f}, "
             f"clean PSNR gain {rows[-1]['gain_psnr_clean']:+.2f} dB")
     before = {m: state.before[m] for m in metrics}

@@ -172,7 +172,7 @@ class Mission:
         if self.folder is None:
             return
         state = {"maps": {kind: m.state_dict() for kind, m in self.maps.items()}, "planner": self.planner.state_dict()}
-        self.folder.save_checkpoint(self.records, state, self.saved_steps)
+        self.folder.save_checkpoint(self._header(), self.records, state, self.saved_steps)
         self.saved_steps = len(self.records)  # from here the step is saved: the checkpoint holds the records too
         self.folder.save_records(self._header(), self.records)
         # (the budget in the header is the current one: a resumed mission may have raised it)

@@ -6,6 +6,7 @@ carries a format version (``FORMAT``); ``upgrade_header`` reads every older form
 """
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import json
 import os
@@ -60,6 +61,24 @@ def write_json_atomically(path: Path, data) -> None:
     os.replace(tmp, path)
 
 
+@contextlib.contextmanager
+def written_whole(path: Path):
+    """Write a file through a temporary name beside it, renamed into place once whole: a failure (a full disk) leaves
+    the former file, names the file and the free space, and leaves no partial file."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except OSError as err:
+        tmp.unlink(missing_ok=True)
+        free = shutil.disk_usage(path.parent).free
+        raise OSError(f"could not write {path} ({free / 2**20:.1f} MiB free on its disk): {err.strerror or err}") from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
 def _finite_or_null(value):
     if isinstance(value, float) and not np.isfinite(value):
         return None
@@ -76,6 +95,13 @@ def _differences(stored, mine, where: str = "") -> list[str]:
         return [line for key in sorted(set(stored) | set(mine), key=str)
                 for line in _differences(stored.get(key), mine.get(key), f"{where}.{key}" if where else key)]
     return [] if stored == mine else [f"{where}: {stored!r} there, {mine!r} now"]
+
+
+def _identity(header: dict) -> dict:
+    """Which mission a header describes, as a checkpoint records it: its configuration (the budget aside, which a
+    resume may raise) and the files it was made from."""
+    config = {k: v for k, v in header.get("config", {}).items() if k != "budget"}
+    return json.loads(json.dumps({"config": config, **{k: header.get(k) for k in ("scene_file_sha256", "planner_file_sha256")}}))
 
 
 def _steps_and_views(records: list[dict]) -> list[tuple]:
@@ -165,12 +191,12 @@ class ResultsFolder:
                                      "of at least that")
         return steps
 
-    def save_checkpoint(self, records: list[dict], state: dict, saved_before: int) -> None:
-        """Write the checkpoint (``state`` with the records) atomically: from its rename on, the step is saved. A failure
-        names the steps that are kept (``saved_before``)."""
+    def save_checkpoint(self, header: dict, records: list[dict], state: dict, saved_before: int) -> None:
+        """Write the checkpoint (``state`` with the records and the mission it belongs to) atomically: from its rename
+        on, the step is saved. A failure names the steps that are kept (``saved_before``)."""
         tmp = self.path / (CHECKPOINT_FILE + ".tmp")
         try:
-            torch.save({**state, "steps": len(records), "records": records}, tmp)
+            torch.save({**state, "steps": len(records), "records": records, "mission": _identity(header)}, tmp)
         except (OSError, RuntimeError) as err:  # a full disk surfaces as torch's RuntimeError
             tmp.unlink(missing_ok=True)
             free = shutil.disk_usage(self.path).free
@@ -197,6 +223,10 @@ class ResultsFolder:
                                      "pass --overwrite to start the mission again") from None
         if not isinstance(state, dict) or not {"steps", "maps", "planner"} <= set(state):
             raise ResultsFolderError(f"{path} is not a mission checkpoint; pass --overwrite to start the mission again")
+        differences = _differences(state.get("mission"), _identity(header)) if "mission" in state else []
+        if differences:
+            raise ResultsFolderError(f"{path} belongs to another mission ({'; '.join(differences[:4])}); put back this "
+                                     "mission's checkpoint, or pass --overwrite to start it again")
         if (state["steps"] == len(records) + 1 and "records" in state
                 and _steps_and_views(state["records"][:-1]) == _steps_and_views(records)):
             records = state["records"]

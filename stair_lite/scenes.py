@@ -357,15 +357,26 @@ def list_scenes() -> list[str]:
     return sorted(p.stem for p in SCENE_DIR.glob("*.json"))
 
 
+MAX_SCENE_FILE_BYTES = 10 * 2**20  # a scene of 1,000 objects is about 200 kB
+
+
 def scene_path(name_or_path: str | Path) -> Path:
-    """The JSON file of a scene: a shipped scene's ("scene1") in data/scenes, or the given path."""
+    """The JSON file of a scene: a shipped scene's ("scene1") in data/scenes, or the given path, which must be a
+    regular file (not a device or a pipe, also behind a link) of at most ``MAX_SCENE_FILE_BYTES``."""
     path = Path(name_or_path)
     if path.suffix != ".json":
-        path = SCENE_DIR / f"{name_or_path}.json"
-        if not path.exists():
-            raise ValueError(f"unknown scene {str(name_or_path)!r}; shipped scenes: {', '.join(list_scenes())}")
+        shipped = SCENE_DIR / f"{name_or_path}.json"
+        if not shipped.exists():
+            hint = f" ({path} exists, but a scene file's name ends in .json)" if path.exists() else ""
+            raise ValueError(f"unknown scene {str(name_or_path)!r}{hint}; shipped scenes: {', '.join(list_scenes())}")
+        path = shipped
     if not path.exists():
         raise FileNotFoundError(f"scene file not found: {path}")
+    if not path.is_file():
+        raise ValueError(f"scene file {path} is not a regular file (a device, a pipe or a folder)")
+    size = path.stat().st_size
+    if size > MAX_SCENE_FILE_BYTES:
+        raise ValueError(f"scene file {path} holds {size} bytes, more than a scene needs ({MAX_SCENE_FILE_BYTES})")
     return path
 
 

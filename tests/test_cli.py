@@ -22,11 +22,18 @@ def test_render_of_a_scene_file_writes_into_the_output_folder(tmp_path, capsys):
     (["sweep", "--planners", "stair_epsinf"], "planner variant 'stair_epsinf': epsilon must be a number from 0"),
     (["sweep", "--workers", "0"], "--workers must be at least 1, got 0"),
     (["sweep", "--workers", "-1"], "--workers must be at least 1, got -1"),
-    (["run", "--seed", str(10**20)], f"seed must be a whole number from 0 to {2**32 - 1}, got {10**20}"),
-    (["sweep", "--first-seed", str(2**32)], f"--first-seed must be from 0 to {2**32} - --seeds, got {2**32}"),
+    (["run", "--seed", str(10**20)], f"argument --seed: a seed is from 0 to {2**32 - 1}, got {10**20}"),
+    (["fit", "--seed", "-1"], "argument --seed: a seed is from 0 to 4294967295, got -1"),
+    (["fit", "--rays", "1000000000"], "--rays must be between 1 and 65536, got 1000000000"),
+    (["headroom", "--candidates", "100000"], "2 to 128 candidates and 1 to 8 streams, got after=3, candidates=100000"),
+    (["sweep", "--first-seed", str(2**32 - 1)], f"--first-seed must be from 0 to {2**32} - --seeds, got {2**32 - 1}"),
 ])
 def test_bad_settings_are_refused_in_one_line(tmp_path, capsys, argv, message):
-    assert main(argv + ["--out", str(tmp_path / "out"), "--preset", "smoke"]) == 2
+    try:
+        status = main(argv + ["--out", str(tmp_path / "out"), "--preset", "smoke"])
+    except SystemExit as stop:  # argparse's refusal of an option's value
+        status = stop.code
+    assert status == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert not (tmp_path / "out").exists()  # refused before anything is written
@@ -57,9 +64,9 @@ def test_scenes_refuses_a_scene_file_that_run_refuses(tmp_path, capsys, change, 
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["fit", "--iterations", "0"], "--iterations must be at least 1, got 0"),
-    (["fit", "--rays", "0"], "--rays must be at least 1, got 0"),
-    (["fit", "--views", "0"], "--views must be at least 1, got 0"),
+    (["fit", "--iterations", "0"], "--iterations must be between 1 and 20000, got 0"),
+    (["fit", "--rays", "0"], "--rays must be between 1 and 65536, got 0"),
+    (["fit", "--views", "0"], "--views must be between 1 and 500, got 0"),
 ])
 def test_fit_refuses_an_empty_schedule(capsys, argv, message):
     assert main(argv) == 2

@@ -39,8 +39,32 @@ def test_rows_gains_and_correlations(headroom, tmp_path):
 
 
 def test_bad_arguments_are_named():
-    with pytest.raises(ValueError, match="at least 1 view before, 2 candidates"):
+    with pytest.raises(ValueError, match="at least 1 view before, 2 to 128 candidates"):
         measure_headroom("scene1", after=0, n_candidates=5, preset="smoke")
+
+
+def test_a_stopped_headroom_run_keeps_its_finished_views_and_continues_from_them(tmp_path):
+    """The views realised before an interruption are kept in the progress file; the next run realises only the
+    others, and the table equals an uninterrupted run's."""
+    whole = measure_headroom("scene1", after=1, n_candidates=4, preset="smoke", utilities=("stair",), log=lambda _: None)
+    progress = tmp_path / "scene1_after1.partial.jsonl"
+    calls = []
+
+    def stop_after_two(line):
+        calls.append(line)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        measure_headroom("scene1", after=1, n_candidates=4, preset="smoke", utilities=("stair",), log=stop_after_two,
+                         progress=progress)
+    assert len(progress.read_text().splitlines()) == 1 + 2  # the header and two realised views
+    realised = []
+    resumed = measure_headroom("scene1", after=1, n_candidates=4, preset="smoke", utilities=("stair",),
+                               log=realised.append, progress=progress)
+    assert len(realised) == len(whole.rows) - 2 and resumed.rows == whole.rows
+    with pytest.raises(ValueError, match="finished views of another headroom table"):
+        measure_headroom("scene1", after=1, n_candidates=5, preset="smoke", utilities=("stair",), progress=progress)
 
 
 def test_the_noise_ceiling_is_perfect_for_identical_streams_and_lower_for_noisy_ones():

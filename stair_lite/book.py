@@ -26,7 +26,7 @@ NOTEBOOK_DIR, PACKAGE_DIR = ROOT / "notebooks", ROOT / "stair_lite"
 CELL_TIMEOUT_S = 600  # as the notebook tests
 CONF = '''project = "stair_lite"
 author = "stair_lite"
-extensions = ["myst_nb"]
+extensions = ["myst_nb", "sphinx-mathjax-offline"]  # MathJax is bundled into the site: equations render offline
 html_theme = "sphinx_book_theme"
 html_title = "stair_lite: semantic-targeted active reconstruction, step by step"
 html_theme_options = {"show_toc_level": 2}

@@ -32,7 +32,10 @@ async function inspect(page) {
   await new Promise(done => { frame.onload = done; frame.src = page; });
   const doc = frame.contentDocument;
   const images = [...doc.querySelectorAll("main img, article img")];
-  await Promise.all(images.map(img => img.decode().catch(() => null)));
+  // onload means every image has loaded; decode() may stay pending while MathJax keeps headless chromium's virtual
+  // clock busy, so it is given 5 virtual seconds (drawImage decodes a loaded image anyway)
+  const pause = new Promise(done => setTimeout(done, 5000));
+  await Promise.all(images.map(img => Promise.race([img.decode().catch(() => null), pause])));
   const figures = images.map(img => {
     const loaded = img.complete && img.naturalWidth > 0;
     let blank = true;
@@ -117,3 +120,33 @@ def test_mentions_are_linked_once():
     assert "[`stair_lite/field.py`](source/field.md)" in linked and "[`utility.py`](source/utility.md)" in linked
     assert "`nothing.py` and" in linked  # not a module: left alone
     assert linked.count("](02_voxel_occupancy_field.ipynb)") == 1 and "[notebook 02](x.ipynb)" in linked
+
+
+def rendered_dom(html_dir: Path, page: str) -> str:
+    """The DOM of ``page`` after headless chromium ran its scripts (MathJax among them), served over HTTP."""
+    handler = functools.partial(QuietHandler, directory=str(html_dir))
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        return subprocess.run(
+            [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+             "--virtual-time-budget=60000", "--dump-dom", f"http://127.0.0.1:{server.server_port}/{page}"],
+            capture_output=True, text=True, timeout=300, check=True).stdout
+    finally:
+        server.shutdown()
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed (make test installs it)")
+def test_every_chapters_equations_render_without_a_network(site):
+    """MathJax is part of the site (no CDN): in a browser with no network, as here, every equation is typeset and
+    none is left as raw LaTeX."""
+    typeset = {}
+    for chapter in book.chapters():
+        dom = rendered_dom(site, chapter.with_suffix(".html").name)
+        text = re.sub(r"<(script|style)\b.*?</\1>", "", dom, flags=re.S)
+        text = re.sub(r"<mjx-container\b.*?</mjx-container>", "", text, flags=re.S)  # typeset math keeps its source
+        raw = [m for m in ("\\(", "\\[") if m in text]
+        assert not raw, f"{chapter.name}: equations shown as raw LaTeX ({raw})"
+        typeset[chapter.name] = dom.count("<mjx-container")
+    assert typeset["04_entropy_utility.ipynb"] > 50, typeset  # the utility's chapter is full of equations
+    assert sum(n > 0 for n in typeset.values()) >= 5, typeset

@@ -179,3 +179,31 @@ def test_a_sweep_with_a_failed_cell_says_so_and_exits_non_zero(tmp_path, capsys)
     assert status == 1
     assert "1 cells run" in out and "1 failed or not run: run the same command again to redo them" in out
     assert "broken on purpose" in err
+
+
+def test_a_scheduler_lost_mid_sweep_is_named_in_one_line(tmp_path, capsys):
+    """The scheduler goes away while a cell runs: one line says so (no Dask traceback), the finished cells stay."""
+    import time
+
+    from dask.distributed import LocalCluster
+
+    environ = dict(os.environ)
+    cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None)
+    address = cluster.scheduler_address
+
+    def stop_the_cluster_once_a_step_is_saved():
+        deadline = time.time() + 120
+        while not list((tmp_path / "o").glob("*/*/seed*/metrics.json")) and time.time() < deadline:
+            time.sleep(0.1)
+        cluster.close()
+
+    thread = threading.Thread(target=stop_the_cluster_once_a_step_is_saved)
+    thread.start()
+    try:
+        err = refusal(["sweep", "--scenes", "scene1", "--planners", "uniform,fixed", "--seeds", "2", "--preset", "smoke",
+                       "--budget", "3", "--quiet", "--scheduler", address, "--out", str(tmp_path / "o")], capsys)
+    finally:
+        thread.join()
+        os.environ.clear()
+        os.environ.update(environ)
+    assert f"lost the Dask scheduler at {address}" in err and "the finished cells are kept" in err

@@ -35,3 +35,15 @@ def test_results_md_quotes_the_computed_league():
     folder = RESULTS_DIR / "headroom_league_lite"
     computed = league_markdown([Headroom.load(p.with_suffix("")) for p in sorted(folder.glob("*.json"))]).rstrip("\n")
     assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite league ...`"
+
+
+def test_no_stored_mission_has_a_phantom_below_the_ground():
+    """Every step of every stored mission fills at most 1 % of the volume below the ground (``phantom``): the scores
+    read a map without the volume no ray reached."""
+    import json
+
+    steps = [(path, r["step"], r["phantom"]) for path in sorted(RESULTS_DIR.glob("*/*/*/seed*/metrics.json"))
+             for r in json.loads(path.read_text())["steps"] if r.get("phantom") is not None]
+    assert len(steps) > 5000  # every stored study is read
+    worst = max(steps, key=lambda s: s[2])
+    assert worst[2] <= 0.01, f"{worst[0]} step {worst[1]}: phantom {worst[2]:.2%}"

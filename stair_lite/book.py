@@ -5,8 +5,9 @@
 Chapters are the executed copies that the notebook tests wrote (``conftest.py``: every cell ran and passed in
 that session); a notebook without one, or whose source changed after it, is executed here first (nbclient).
 The book adds a page per ``stair_lite`` module with its source, links every mention of a module
-(`` `stair_lite/field.py` ``) and of another chapter ("notebook 02") to it, and carries ``REFERENCES.md`` and
-``RESULTS.md``. The site is ``OUT/html/index.html``: plain files, to be served by any static host.
+(`` `stair_lite/field.py` ``) and of another chapter ("notebook 02") to it, and carries ``REFERENCES.md``,
+``RESULTS.md``, and the course plan ``COURSE.md``. The site is ``OUT/html/index.html``: plain files, to be served
+by any static host.
 """
 from __future__ import annotations
 
@@ -83,7 +84,7 @@ def link_mentions(text: str, chapter_files: dict[str, str]) -> str:
 
 
 def stage(src: Path, executed_dir: Path) -> None:
-    """Write the book's sources: conf.py, the index, the chapters, the module pages and the two documents."""
+    """Write the book's sources: conf.py, the index, the chapters, the module pages and the three documents."""
     if src.exists():
         shutil.rmtree(src)
     (src / "source").mkdir(parents=True)
@@ -99,7 +100,7 @@ def stage(src: Path, executed_dir: Path) -> None:
         code = (PACKAGE_DIR / module).read_text()
         (src / (source_page(module) + ".md")).write_text(
             f"# `stair_lite/{module}`\n\n```python\n{code}\n```\n")
-    for document in ("REFERENCES.md", "RESULTS.md"):
+    for document in ("COURSE.md", "REFERENCES.md", "RESULTS.md"):
         shutil.copy(ROOT / document, src / document)
     intro = (ROOT / "README.md").read_text().split("\n## ")[0].split("\n", 1)[1]  # the README's opening paragraphs
     source_entries = "\n".join(source_page(m) for m in modules())
@@ -109,6 +110,7 @@ def stage(src: Path, executed_dir: Path) -> None:
         "run it yourself with `make lab`.\n\n"
         f"```{{toctree}}\n:caption: Chapters\n:maxdepth: 1\n\n{chapter_entries}\n```\n\n"
         "```{toctree}\n:caption: Results and references\n:maxdepth: 1\n\nRESULTS.md\nREFERENCES.md\n```\n\n"
+        "```{toctree}\n:caption: Teaching with it\n:maxdepth: 1\n\nCOURSE.md\n```\n\n"
         f"```{{toctree}}\n:caption: Source of the package\n:maxdepth: 1\n\n{source_entries}\n```\n")
 
 

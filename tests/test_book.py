@@ -113,6 +113,12 @@ def test_chapters_link_to_each_other_and_to_the_source(site):
     assert "def score_views" in re.sub(r"<[^>]+>", "", source)
 
 
+def test_the_course_plan_is_a_page_of_the_book(site):
+    plan = re.sub(r"<[^>]+>", "", (site / "COURSE.html").read_text())
+    assert all(f"Week {k}" in plan for k in (1, 2, 3, 4)) and "capstone" in plan.lower()
+    assert 'href="COURSE.html"' in (site / "index.html").read_text()
+
+
 def test_mentions_are_linked_once():
     chapters = {"02": "02_voxel_occupancy_field.ipynb"}
     text = "See `stair_lite/field.py`, `utility.py`, `nothing.py` and notebook 02 ([notebook 02](x.ipynb))."

@@ -185,7 +185,8 @@ def _failure_reason(returncode: int, log: str, limits: Limits) -> str:
     return f"nbgrader could not grade it: {last[0].strip()[:200]}"
 
 
-def _grade_isolated(course: Path, work: Path, student: str, submitted: Path, limits: Limits, keep: Path | None):
+def _grade_isolated(course: Path, work: Path, student: str, submitted: Path, limits: Limits, keep: Path | None,
+                    workers: int = 1):
     """Autograde one submitted notebook in its own copy of the course folder, in its own confined process
     (``confinement``) with the limits: returns ((points, max points, failed checks), "") or (None, reason)."""
     from nbgrader.api import Gradebook, MissingEntry
@@ -199,7 +200,8 @@ def _grade_isolated(course: Path, work: Path, student: str, submitted: Path, lim
     from .widgets import STATIC_ONLY
 
     # the kernel shows widgets as their static figures: nbgrader's runner can stall a whole cell timeout on a live one
-    env = {**os.environ, STATIC_ONLY: "1", "HOME": str(work / "home"), "TMPDIR": str(work / "tmp"), "MPLCONFIGDIR": str(work / "home"),
+    threads = str(max(1, (os.cpu_count() or 1) // workers))  # notebooks graded side by side share the cores
+    env = {**os.environ, STATIC_ONLY: "1", "OMP_NUM_THREADS": threads, "HOME": str(work / "home"), "TMPDIR": str(work / "tmp"), "MPLCONFIGDIR": str(work / "home"),
            "JUPYTER_RUNTIME_DIR": str(work / "home"), "IPYTHONDIR": str(work / "home")}
     code = f"from stair_lite.course import _autograde_here; _autograde_here({str(work)!r}, {student!r}, {limits.cell_timeout_s})"
     child = subprocess.Popen([*confinement(), str(work), sys.executable, "-c", code] if confinement() else
@@ -243,11 +245,16 @@ def _autograde_here(root: str, student: str, cell_timeout_s: int) -> None:
 
 
 def grade(submissions: str | Path, notebooks: list[Path] | None = None, keep: str | Path | None = None,
-          limits: Limits = Limits()) -> list[Grade]:
+          limits: Limits = Limits(), workers: int = 1) -> list[Grade]:
     """Autograde every student folder in ``submissions`` against the source notebooks (executed by nbgrader with
     the graded cells restored from the source), each notebook in its own confined process (``_grade_isolated``)
-    after the tripwire (``course_guard``) has read it. A notebook that cannot be graded gets its row with 0 points
-    and the reason; the others are graded. ``keep``: a folder for the executed submissions."""
+    after the tripwire (``course_guard``) has read it, ``workers`` notebooks at a time. A notebook that cannot be
+    graded gets its row with 0 points and the reason; the others are graded. ``keep``: a folder for the executed
+    submissions."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
     notebooks = _notebooks(notebooks)
     submissions = Path(submissions)
     if not submissions.is_dir():
@@ -257,24 +264,25 @@ def grade(submissions: str | Path, notebooks: list[Path] | None = None, keep: st
         raise ValueError(f"{submissions} holds no student folders: expected {submissions}/<student>/<notebook>.ipynb")
     sources = {nb.name: nb for nb in notebooks}
     keep = None if keep is None else Path(keep)
-    grades = []
     with tempfile.TemporaryDirectory(prefix="stair_course_") as tmp:
         course = Path(tmp) / "course"
         _generate(course, notebooks)
-        for folder in students:
-            files = sorted(folder.glob("*.ipynb"))
-            if not files:
-                grades.append(Grade(folder.name, "", 0, 0, (), f"no notebooks in {folder}"))
-            for file in files:
-                grades.append(_grade_one(course, Path(tmp) / "work" / f"{len(grades)}", folder.name, file,
-                                         sources.get(file.name), sorted(sources), limits, keep))
-    return grades
+        jobs = [(folder.name, file) for folder in students for file in sorted(folder.glob("*.ipynb")) or [None]]
+        # each job is a process of its own: threads only wait for them
+        with ThreadPoolExecutor(workers) as pool:
+            return list(pool.map(lambda job: _grade_one(course, Path(tmp) / "work" / str(job[0]), *job[1], sources,
+                                                        limits, keep, workers), enumerate(jobs)))
 
 
-def _grade_one(course, work, student, file, source, known, limits, keep) -> Grade:
-    """One student's notebook: refused with its reason, or graded in isolation."""
+def _grade_one(course, work, student, file, sources, limits, keep, workers) -> Grade:
+    """One student's notebook: refused with its reason, or graded in isolation (``file`` None: the student's folder
+    holds no notebook)."""
+    if file is None:
+        return Grade(student, "", 0, 0, (), "no notebooks in the student's folder")
+    source = sources.get(file.name)
     if source is None:
-        return Grade(student, file.name, 0, 0, (), f"not a notebook of the course (expected one of {', '.join(known)})")
+        expected = ", ".join(sorted(sources))
+        return Grade(student, file.name, 0, 0, (), f"not a notebook of the course (expected one of {expected})")
     checks = _checks(source)
     ungraded = lambda reason: Grade(student, file.name, 0, sum(checks.values()), tuple(sorted(checks)), reason)  # noqa: E731
     try:
@@ -286,7 +294,7 @@ def _grade_one(course, work, student, file, source, known, limits, keep) -> Grad
     found = tampering(code(submitted), code(nbformat.read(source, as_version=4)))
     if found:
         return ungraded("refused, code that reaches for the grader: " + "; ".join(found[:3]))
-    outcome, reason = _grade_isolated(course, work, student, file, limits, keep)
+    outcome, reason = _grade_isolated(course, work, student, file, limits, keep, workers)
     if outcome is None:
         return ungraded(reason)
     return Grade(student, file.name, *outcome, reason)
@@ -314,6 +322,8 @@ def main(argv: list[str] | None = None) -> None:
                    help="seconds a whole notebook may run (default %(default)s)")
     p.add_argument("--memory-gb", type=float, default=Limits.memory_gb,
                    help="address space of a notebook's process and kernel (default %(default)s)")
+    p.add_argument("--workers", type=int, default=1, help="notebooks graded at a time, each in its own process "
+                   "(default %(default)s)")
     args = parser.parse_args(argv)
     # a terminated grading unwinds like Ctrl-C: the running notebook is stopped and the temporary folders go
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
@@ -323,7 +333,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     try:
         limits = Limits(args.timeout, args.notebook_timeout, args.memory_gb)
-        grades = grade(args.submissions, limits=limits)
+        grades = grade(args.submissions, limits=limits, workers=args.workers)
     except ValueError as err:
         parser.exit(2, f"error: {err}\n")
     write_table(grades, args.out)

@@ -388,7 +388,7 @@ class dask_client:
         import contextlib
 
         with contextlib.suppress(Exception):  # a scheduler that is gone cannot be told goodbye
-            self.client.close(timeout=CONNECT_TIMEOUT_S)
+            self.client.close(timeout=5)
         if self.cluster is not None:
             self.cluster.close()  # stops the worker processes, also on Ctrl-C
         self._restore_environment()

@@ -116,7 +116,7 @@ def test_grading_gives_full_points_to_the_solutions_and_fewer_to_a_wrong_answer(
     course.student_release(tmp_path / "release", [source])
     shutil.copy(tmp_path / "release" / source.name, submissions / "untouched" / source.name)
 
-    grades = {g.student: g for g in course.grade(submissions, [source], keep=tmp_path / "executed")}
+    grades = {g.student: g for g in course.grade(submissions, [source], keep=tmp_path / "executed", workers=2)}
     assert grades["solutions"].score == grades["solutions"].max_score == 3 and not grades["solutions"].failed
     assert grades["one_wrong"].score == 2 and grades["one_wrong"].failed == ("01_scale_intrinsics_check",)
     assert grades["untouched"].score == 0 and len(grades["untouched"].failed) == 3
@@ -179,7 +179,8 @@ def test_the_release_with_one_wrong_answer_per_notebook_runs_to_the_end_and_lose
         nbformat.write(nb, student / source.name)
         expected_failed[source.name] = tuple(sorted(f"{i}_check" for i in (wrong_id, UNANSWERED.get(source.name)) if i))
 
-    grades = {g.notebook: g for g in course.grade(tmp_path / "submissions", notebooks, keep=tmp_path / "executed")}
+    grades = {g.notebook: g for g in course.grade(tmp_path / "submissions", notebooks, keep=tmp_path / "executed",
+                                                  workers=2)}
     for source in notebooks:
         g = grades[source.name]
         assert g.failed == expected_failed[source.name], source.name

@@ -96,7 +96,7 @@ def test_grading_survives_cheats_escapes_hangs_and_broken_files(tmp_path, monkey
     monkeypatch.setenv("TMPDIR", str(temporary))
     monkeypatch.setattr("tempfile.tempdir", None)
 
-    grades = course.grade(tmp_path / "submissions", [source], limits=course.Limits(cell_timeout_s=20))
+    grades = course.grade(tmp_path / "submissions", [source], limits=course.Limits(cell_timeout_s=20), workers=2)
     rows = {(g.student, g.notebook): g for g in grades}
     assert rows[("good", source.name)].score == 1 == rows[("good", source.name)].max_score
     assert rows[("good", source.name)].reason == ""

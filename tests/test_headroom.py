@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from stair_lite.headroom import Headroom, add_utilities, measure_headroom, noise_ceiling, ranking_planners
+from stair_lite.headroom import (Headroom, _finished_rows, add_utilities, measure_headroom, noise_ceiling,
+                                 ranking_planners)
 from stair_lite.mission import Mission, MissionConfig
 
 
@@ -64,7 +65,7 @@ def test_a_stopped_headroom_run_keeps_its_finished_views_and_continues_from_them
                                log=realised.append, progress=progress)
     assert len(realised) == len(whole.rows) - 2 and resumed.rows == whole.rows
     with pytest.raises(ValueError, match="finished views of another headroom table"):
-        measure_headroom("scene1", after=1, n_candidates=5, preset="smoke", utilities=("stair",), progress=progress)
+        _finished_rows(progress, {"scene": "scene1", "after": 1, "candidates": 5})
 
 
 def test_the_noise_ceiling_is_perfect_for_identical_streams_and_lower_for_noisy_ones():

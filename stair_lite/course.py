@@ -37,7 +37,8 @@ from .course_guard import tampering
 NOTEBOOK_DIR = Path(__file__).resolve().parent.parent / "notebooks"
 ASSIGNMENT = "stair_lite"  # nbgrader's name for the course's one assignment: the six notebooks
 CELL_TIMEOUT_S = 600  # as the notebook tests (nbval's cell timeout)
-RUN_PAST = "raises-exception"  # the cell tag with which Run All goes on past an error (Jupyter, nbclient)
+RUN_PAST = "raises-exception"
+_GRADING: set[int] = set()  # the process groups of the notebooks being graded now  # the cell tag with which Run All goes on past an error (Jupyter, nbclient)
 
 
 def _notebooks(notebooks) -> list[Path]:
@@ -207,6 +208,7 @@ def _grade_isolated(course: Path, work: Path, student: str, submitted: Path, lim
     child = subprocess.Popen([*confinement(), str(work), sys.executable, "-c", code] if confinement() else
                              [sys.executable, "-c", code], cwd=work, env=env, stdout=subprocess.PIPE,
                              stderr=subprocess.STDOUT, text=True, preexec_fn=_limit_memory(limits))
+    _GRADING.add(child.pid)
     try:
         log, _ = child.communicate(timeout=limits.notebook_timeout_s)
     except subprocess.TimeoutExpired:
@@ -215,6 +217,7 @@ def _grade_isolated(course: Path, work: Path, student: str, submitted: Path, lim
         with contextlib.suppress(ProcessLookupError):
             os.killpg(child.pid, signal.SIGKILL)  # the child, its kernel and whatever they started
         child.wait()
+        _GRADING.discard(child.pid)
     if keep is not None and (work / "autograded" / student).is_dir():
         shutil.copytree(work / "autograded" / student, keep / student, dirs_exist_ok=True)
     if child.returncode != 0:
@@ -269,9 +272,17 @@ def grade(submissions: str | Path, notebooks: list[Path] | None = None, keep: st
         _generate(course, notebooks)
         jobs = [(folder.name, file) for folder in students for file in sorted(folder.glob("*.ipynb")) or [None]]
         # each job is a process of its own: threads only wait for them
-        with ThreadPoolExecutor(workers) as pool:
+        pool = ThreadPoolExecutor(workers)
+        try:
             return list(pool.map(lambda job: _grade_one(course, Path(tmp) / "work" / str(job[0]), *job[1], sources,
                                                         limits, keep, workers), enumerate(jobs)))
+        except BaseException:  # Ctrl-C or SIGTERM: stop the notebooks being graded, so that their threads end
+            for group in list(_GRADING):
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(group, signal.SIGKILL)
+            raise
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _grade_one(course, work, student, file, sources, limits, keep, workers) -> Grade:

@@ -53,11 +53,21 @@ def occupancy_volume(field, resolution: int, targets=None, z_min: float | None =
     Points whose semantic argmax is background (or, with ``targets``, not a target) count as empty:
     the paper's target-only mesh. ``z_min`` skips the layers below it (they stay empty). ``skip`` (a
     ``SkipGrid`` of the field, built with the same ``targets``): points in cells it leaves out count as
-    empty without evaluating the field (its occupancy there is below the skip grid's threshold).
+    empty without evaluating the field (its occupancy there is below the skip grid's threshold); only the vertices in
+    the box of its kept cells are looked at.
     """
     lattice = Lattice(resolution, field.lattice.bound)
-    first = lattice.first_layer(z_min) if z_min is not None else 0
-    points = lattice.points(field.device, z_min=z_min)
+    low = torch.full((3,), -lattice.bound)
+    high = torch.full((3,), lattice.bound)
+    if z_min is not None:
+        low[2] = lattice.axis()[lattice.first_layer(z_min)]
+    if skip is not None:  # only the vertices in the box of the skip grid's kept cells can be evaluated
+        box = skip.box()
+        if box is None:
+            return np.zeros((resolution,) * 3, np.float32), lattice
+        low, high = torch.maximum(low, box[0].cpu()), torch.minimum(high, box[1].cpu())
+    block = lattice.block(low, high)
+    points = lattice.block_points(block, field.device)
     evaluate = skip.lookup(points) if skip is not None else torch.ones(len(points), dtype=torch.bool, device=field.device)
     occ = torch.zeros(len(points), device=field.device)
     wanted = None if targets is None else torch.as_tensor(targets, device=field.device)
@@ -67,7 +77,8 @@ def occupancy_volume(field, resolution: int, targets=None, z_min: float | None =
         keep = label != BACKGROUND if wanted is None else torch.isin(label, wanted)
         occ[part] = q["occ"] * keep
     volume = np.zeros((resolution,) * 3, np.float32)  # indexed [z, y, x], the lattice's flat order
-    volume[first:] = occ.view(resolution - first, resolution, resolution).cpu().numpy()
+    z, y, x = block[::-1]
+    volume[z, y, x] = occ.view(z.stop - z.start, y.stop - y.start, x.stop - x.start).cpu().numpy()
     return xyz(volume), lattice
 
 

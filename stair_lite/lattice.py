@@ -52,6 +52,20 @@ class Lattice:
         z, y, x = torch.meshgrid(zs, axis, axis, indexing="ij")
         return torch.stack([x, y, z], dim=-1).reshape(-1, 3)
 
+    def block(self, low: torch.Tensor, high: torch.Tensor) -> tuple[slice, slice, slice]:
+        """The index ranges (x, y, z) of the vertices in the world box [low, high] (corners (3,)); empty ranges when
+        the box holds none."""
+        axis = self.axis().double()
+        first = torch.searchsorted(axis, low.double(), right=False)
+        last = torch.searchsorted(axis, high.double(), right=True)
+        return tuple(slice(int(a), max(int(a), int(b))) for a, b in zip(first, last))
+
+    def block_points(self, block: tuple[slice, slice, slice], device=None) -> torch.Tensor:
+        """World positions (N, 3) of the vertices of a ``block``, in flat order (z slowest, x fastest)."""
+        axis = self.axis(device)
+        z, y, x = torch.meshgrid(axis[block[2]], axis[block[1]], axis[block[0]], indexing="ij")
+        return torch.stack([x, y, z], dim=-1).reshape(-1, 3)
+
     def first_layer(self, z_min: float) -> int:
         """Index of the lowest z-layer kept by ``points(z_min=...)``: one layer below ``z_min`` is kept, so
         the cells that straddle ``z_min`` are whole."""

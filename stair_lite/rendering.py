@@ -18,13 +18,14 @@ from .geometry import Intrinsics, pixel_rays
 from .lattice import Lattice, flat_index
 
 
-def ray_box_intersection(origins: torch.Tensor, dirs: torch.Tensor, bound: float, near: float):
-    """Entry and exit ray parameters of the cube [-bound, bound]^3 (slab method); entry clamped to >= near.
+def ray_box_intersection(origins: torch.Tensor, dirs: torch.Tensor, bound, near: float, low=None):
+    """Entry and exit ray parameters of the cube [-bound, bound]^3 (slab method), or of the box [low, bound] when
+    ``low`` is given (both (3,) tensors then); entry clamped to >= near.
 
-    Returns (t_near, t_far, hit) with hit False where the ray misses the cube.
+    Returns (t_near, t_far, hit) with hit False where the ray misses the box.
     """
     safe = torch.where(dirs.abs() < 1e-12, torch.full_like(dirs, 1e-12), dirs)
-    t0, t1 = (-bound - origins) / safe, (bound - origins) / safe
+    t0, t1 = ((-bound if low is None else low) - origins) / safe, (bound - origins) / safe
     t_near = torch.minimum(t0, t1).amax(dim=1).clamp(min=near)
     t_far = torch.maximum(t0, t1).amin(dim=1)
     return t_near, t_far, t_far > t_near
@@ -109,6 +110,17 @@ class SkipGrid:
     def lookup(self, points: torch.Tensor) -> torch.Tensor:
         """Whether each point (..., 3) lies in a kept cell (nearest lattice vertex)."""
         return self.keep[self.lattice.nearest_index(points)]
+
+    def box(self) -> tuple[torch.Tensor, torch.Tensor] | None:
+        """A world box (low, high corners) outside which ``lookup`` keeps no point: the kept vertices' bounding box,
+        grown by one vertex spacing (a point belongs to its nearest vertex, half a spacing away at most; the other
+        half is a margin for rounding). None when no vertex is kept."""
+        rows = self.keep.nonzero().squeeze(1)
+        if len(rows) == 0:
+            return None
+        r, axis = self.lattice.resolution, self.lattice.axis(self.keep.device)
+        ijk = torch.stack([rows % r, (rows // r) % r, rows // (r * r)], dim=1)
+        return axis[ijk.amin(dim=0)] - self.lattice.spacing, axis[ijk.amax(dim=0)] + self.lattice.spacing
 
     def above(self, z_min: float) -> "SkipGrid":
         """This grid without the vertex layers below height ``z_min``."""
@@ -331,10 +343,17 @@ def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, c
 def rays_through(skip: SkipGrid, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderConfig,
                  n_samples: int | None = None) -> torch.Tensor:
     """Which rays (R,) have at least one of their (unjittered) render samples in a cell ``skip`` keeps: the
-    others composite to the background without evaluating the field."""
-    live = []
-    for o, d in zip(torch.split(origins, cfg.chunk_rays), torch.split(dirs, cfg.chunk_rays)):
+    others composite to the background without evaluating the field. Only the rays that cross the box of the kept
+    cells (``SkipGrid.box``) are sampled to find out."""
+    live = torch.zeros(len(origins), dtype=torch.bool, device=origins.device)
+    box = skip.box()
+    if box is None:
+        return live
+    _, _, crosses = ray_box_intersection(origins, dirs, box[1], cfg.near, low=box[0])
+    rows = crosses.nonzero().squeeze(1)
+    for chunk in torch.split(rows, cfg.chunk_rays):
+        o, d = origins[chunk], dirs[chunk]
         t_near, t_far, hit = ray_box_intersection(o, d, skip.lattice.bound, cfg.near)
         t = sample_along_rays(t_near, torch.where(hit, t_far, t_near + 1e-3), n_samples or cfg.n_samples)
-        live.append(hit & skip.lookup(o[:, None, :] + t[..., None] * d[:, None, :]).any(dim=1))
-    return torch.cat(live)
+        live[chunk] = hit & skip.lookup(o[:, None, :] + t[..., None] * d[:, None, :]).any(dim=1)
+    return live

@@ -1,5 +1,6 @@
 from dataclasses import replace
 
+import numpy as np
 import pytest
 import torch
 
@@ -106,3 +107,51 @@ def test_a_ray_reaches_the_cells_in_front_of_its_depth_and_a_miss_crosses_the_cu
         return set(torch.nonzero(reached_vertices(lattice, origins[rows], dirs[rows], depth[rows], near=0.2)).squeeze(1).tolist())
     assert reached([0]) == row(2)
     assert reached([1]) == row(9)
+
+
+def test_rays_through_culls_by_the_kept_box_exactly_as_sampling_every_ray():
+    """``rays_through`` samples only the rays that cross the box of the kept cells; the rays it finds are those that
+    sampling every ray finds, also with kept cells at the cube's faces and with none kept."""
+
+
+    from stair_lite.config import RenderConfig
+    from stair_lite.geometry import Intrinsics, pixel_rays, view_to_pose
+    from stair_lite.lattice import Lattice
+    from stair_lite.rendering import SkipGrid, rays_through
+
+    lattice, cfg = Lattice(24), RenderConfig(n_samples=48)
+    k = Intrinsics.from_fov().scaled(0.15)
+    rays = [pixel_rays(k, view_to_pose(el, az)) for el, az in ((0.3, 0.4), (1.2, 2.0), (np.pi / 2, 0.0))]
+    origins = torch.as_tensor(np.concatenate([o for o, _ in rays]), dtype=torch.float32)
+    dirs = torch.as_tensor(np.concatenate([d for _, d in rays]), dtype=torch.float32)
+
+    def every_ray(skip):
+        t_near, t_far, hit = ray_box_intersection(origins, dirs, lattice.bound, cfg.near)
+        t = sample_along_rays(t_near, torch.where(hit, t_far, t_near + 1e-3), cfg.n_samples)
+        return hit & skip.lookup(origins[:, None, :] + t[..., None] * dirs[:, None, :]).any(dim=1)
+
+    keep = torch.zeros(24, 24, 24, dtype=torch.bool)  # [z, y, x]
+    keep[3:6, 10:13, 8:11] = True  # a small block near the ground
+    keep[20:, 0, 23] = True  # a column on an edge of the cube
+    rng = np.random.default_rng(0)
+    scattered = torch.as_tensor(rng.random((24, 24, 24)) < 0.002)
+    for mask in (keep, scattered, torch.zeros_like(keep)):
+        skip = SkipGrid(mask, lattice)
+        found = rays_through(skip, origins, dirs, cfg)
+        assert torch.equal(found, every_ray(skip))
+    assert rays_through(SkipGrid(keep, lattice), origins, dirs, cfg).float().mean() < 0.5  # the box culls
+
+
+def test_lattice_block_holds_the_vertices_in_a_box():
+
+
+    from stair_lite.lattice import Lattice
+
+    lattice = Lattice(11, bound=1.0)  # vertices at -1, -0.8, ..., 1
+    block = lattice.block(torch.tensor([-0.85, -0.01, 0.95]), torch.tensor([-0.19, 0.01, 2.0]))
+    assert block == (slice(1, 5), slice(5, 6), slice(10, 11))
+    points = lattice.block_points(block)
+    full = lattice.points()
+    inside = ((full >= torch.tensor([-0.85, -1e-6, 0.95])) & (full <= torch.tensor([-0.19, 1e-6, 2.0]))).all(dim=1)
+    assert torch.equal(points, full[inside])
+    assert lattice.block(torch.tensor([0.1, 0.1, 0.1]), torch.tensor([0.15, 0.9, 0.9]))[0] == slice(6, 6)  # none

@@ -133,3 +133,71 @@ def test_the_library_update_is_the_checked_one():
         mine = torch.as_tensor(log_odds.copy())
         octomap_update(mine, torch.as_tensor(crossed), torch.as_tensor(hit), **model)
         assert np.allclose(mine.numpy(), check_octomap_update.reference(log_odds, crossed, hit, **model))
+
+
+# ---- STE's ROI score of a ray --------------------------------------------------------------------
+from stair_lite.exercises.comparison import OCCUPIED, OUTSIDE, UNKNOWN, check_ray_roi_score  # noqa: E402
+
+
+def roi(state, distance, max_distance, stop=True, per_counted=False, normalise=True, clamp=True, bonus=True):
+    total, counted = 0.0, 0
+    for s, d in zip(state, distance):
+        if s == OUTSIDE:
+            continue
+        counted += 1
+        if s == UNKNOWN:
+            extra = 0.5 * (max_distance - d) / max_distance
+            total += 0.5 + ((max(0.0, extra) if clamp else extra) if bonus else 0.0)
+        if s == OCCUPIED and stop:
+            break
+    inside = int(np.sum(np.asarray(state) != OUTSIDE))
+    if not normalise:
+        return total
+    return total / max(1, counted if per_counted else inside)
+
+
+def test_ray_roi_score_accepts_a_loop_over_the_ray():
+    assert check_ray_roi_score(roi)
+
+
+@pytest.mark.parametrize("wrong, hint", [
+    (dict(stop=False), "first occupied voxel"),
+    (dict(per_counted=True), "not by the number counted"),
+    (dict(normalise=False), "normalise"),
+    (dict(clamp=False), "never negative"),
+    (dict(bonus=False), "near a target scores more"),
+])
+def test_ray_roi_score_rejects_plausible_mistakes(wrong, hint):
+    with pytest.raises(AssertionError, match=hint):
+        check_ray_roi_score(lambda *args: roi(*args, **wrong))
+
+
+def test_ray_roi_score_agrees_with_the_voxel_map():
+    """The exercise's rule is the explicit map's: a map with one target voxel scores a view as the sum of its rays'
+    exercise scores, recomputed here ray by ray from the map's own march."""
+    import torch
+
+    from stair_lite.config import get_preset
+    from stair_lite.explicit import ExplicitMap
+    from stair_lite.exercises.comparison import _roi_reference
+    from stair_lite.geometry import Intrinsics, pixel_rays, view_to_pose
+    from stair_lite.scenes import load_scene
+    from stair_lite.simulator import Simulator
+    from scipy.ndimage import distance_transform_edt
+
+    preset = get_preset("smoke")
+    scene = load_scene("scene1")
+    voxel_map = ExplicitMap.from_preset(preset)
+    voxel_map.integrate(Simulator(scene).render(view_to_pose(1.0, 0.3)))
+    view = np.array([[0.6, 2.0]])
+    cfg, r = voxel_map.cfg, voxel_map.cfg.resolution
+    roi_mask = torch.isin(voxel_map.labels, torch.as_tensor(scene.targets)) & (voxel_map.probability > 0.5)
+    assert roi_mask.any()
+    distance = distance_transform_edt(~roi_mask.view(r, r, r).numpy()).reshape(-1)
+    k = Intrinsics.from_fov().scaled(cfg.candidate_scale)
+    origins, dirs = (torch.as_tensor(a, dtype=torch.float32) for a in pixel_rays(k, view_to_pose(*view[0])))
+    index, valid = voxel_map._march(origins, dirs, step_voxels=1.0)
+    state = np.where(voxel_map.probability[index] > 0.5, OCCUPIED, np.where(voxel_map.observed[index], 0, UNKNOWN))
+    state = np.where(valid.numpy(), state, OUTSIDE)
+    by_rays = sum(_roi_reference(s, distance[i], cfg.roi_max_distance) for s, i in zip(state, index.numpy()))
+    assert voxel_map.roi_scores(view, scene.targets)[0] == pytest.approx(by_rays, rel=1e-4)

@@ -254,3 +254,64 @@ def test_training_step_accepts_correct():
 def test_training_step_rejects_wrong(wrong, hint):
     with pytest.raises(AssertionError, match=hint):
         check_training_step(wrong)
+
+
+# ---- trilinear interpolation ---------------------------------------------------------------------
+from stair_lite.exercises.field import check_trilinear  # noqa: E402
+
+
+def trilinear_grid_sample(V, x, bound=1.0):
+    import torch.nn.functional as F
+
+    grid = torch.as_tensor(V).permute(3, 2, 1, 0)[None]
+    out = F.grid_sample(grid, torch.as_tensor(x / bound).view(1, 1, 1, -1, 3), mode="bilinear", align_corners=True)
+    return out.view(V.shape[-1], -1).T.numpy()
+
+
+def trilinear_by_edges(V, x, bound=1.0, centres=False, swap=False, reverse=False, nearest=False):
+    r = V.shape[0]
+    if reverse:
+        V = V.transpose(2, 1, 0, 3)
+    p = (x + bound) / (2 * bound) * (r if centres else r - 1) - (0.5 if centres else 0.0)
+    if nearest:
+        i = np.clip(np.round(p), 0, r - 1).astype(int)
+        return V[i[:, 0], i[:, 1], i[:, 2]]
+    i0 = np.clip(np.floor(p), 0, r - 2).astype(int)
+    f = np.clip(p - i0, 0, 1)
+    if swap:
+        f = 1 - f
+
+    def lerp(a, b, t):
+        return a + t[:, None] * (b - a)
+
+    i, j, k = i0.T
+    fx, fy, fz = f.T
+    c = [[lerp(V[i, j + dj, k + dk], V[i + 1, j + dj, k + dk], fx) for dj in (0, 1)] for dk in (0, 1)]
+    return lerp(lerp(c[0][0], c[0][1], fy), lerp(c[1][0], c[1][1], fy), fz)
+
+
+def test_trilinear_accepts_grid_sample_and_the_edge_by_edge_form():
+    assert check_trilinear(trilinear_grid_sample)
+    assert check_trilinear(trilinear_by_edges)
+
+
+@pytest.mark.parametrize("wrong, hint", [
+    (dict(nearest=True), "nearest vertex"),
+    (dict(centres=True), "align_corners"),
+    (dict(swap=True), "swapped"),
+    (dict(reverse=True), "first index"),
+])
+def test_trilinear_rejects_plausible_mistakes(wrong, hint):
+    with pytest.raises(AssertionError, match=hint):
+        check_trilinear(lambda V, x, bound: trilinear_by_edges(V, x, bound, **wrong))
+
+
+def test_trilinear_rejects_a_last_cell_out_of_range():
+    def no_clamp(V, x, bound):
+        r = V.shape[0]
+        p = (x + bound) / (2 * bound) * (r - 1)
+        i0 = np.floor(p).astype(int)
+        return trilinear_by_edges(V, x, bound) if (i0 <= r - 2).all() else V[np.minimum(i0[:, 0], r - 1), 0, 0]
+
+    with pytest.raises(AssertionError, match="trilinear is wrong"):
+        check_trilinear(no_clamp)

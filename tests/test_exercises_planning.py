@@ -154,3 +154,57 @@ def test_fake_records_look_like_a_mission():
     records = fake_records(np.random.default_rng(0), 10)
     assert [r["step"] for r in records] == list(range(1, 11))
     assert all(0 <= r["f1"] <= 1 for r in records)
+
+
+# ---- the mission loop ----------------------------------------------------------------------------
+from stair_lite.exercises.planning import _mission_reference, check_mission_loop  # noqa: E402
+from stair_lite.geometry import TOP_VIEW  # noqa: E402
+
+
+def loop(world, reconstruction, planner, budget, top_first=True, extra=0, zero_based=False, evaluate_first=False,
+         forget_visited=False, give_map=False):
+    visited, records = [], []
+    for step in range(1, budget + 1 + extra):
+        if step == 1 and top_first:
+            view = np.array(TOP_VIEW)
+        else:
+            source = reconstruction if give_map else reconstruction.planning_source
+            seen = np.array(visited[:1] if forget_visited else visited).reshape(-1, 2)
+            view = planner.next_view(source, seen, world.targets).view
+        measurement = world.measure(view, step - 1 if zero_based else step)
+        if evaluate_first:
+            result = world.evaluator.evaluate(reconstruction)
+            reconstruction.integrate(measurement)
+        else:
+            reconstruction.integrate(measurement)
+            result = world.evaluator.evaluate(reconstruction)
+        visited.append(np.asarray(view, float))
+        records.append({"step": step, "view_rad": list(view), "psnr": result["psnr"], "f1": result["f1"]})
+    return records
+
+
+def test_mission_loop_accepts_a_correct_loop():
+    assert check_mission_loop(_mission_reference)
+    assert check_mission_loop(loop)
+
+
+@pytest.mark.parametrize("wrong, hint", [
+    (dict(top_first=False), "top view"),
+    (dict(extra=1), "budget counts measurements"),
+    (dict(zero_based=True), "numbered from 1"),
+    (dict(evaluate_first=True), "after it has integrated"),
+    (dict(forget_visited=True), "every view measured so far"),
+    (dict(give_map=True), "planning_source"),
+])
+def test_mission_loop_rejects_plausible_mistakes(wrong, hint):
+    with pytest.raises(AssertionError, match=hint):
+        check_mission_loop(lambda *args: loop(*args, **wrong))
+
+
+def test_mission_loop_rejects_records_that_do_not_match_the_steps():
+    def shifted(world, reconstruction, planner, budget):
+        records = loop(world, reconstruction, planner, budget)
+        return [{**r, "f1": records[max(0, i - 1)]["f1"]} for i, r in enumerate(records)]
+
+    with pytest.raises(AssertionError, match="record 2"):
+        check_mission_loop(shifted)

@@ -182,3 +182,86 @@ def test_an_error_in_the_learners_code_is_named_with_the_arguments():
 
     with pytest.raises(AssertionError, match=r"project_wrong_shapes raised ValueError(.|\n)*ndarray of shape \(\d+, 3\)"):
         check_project(project_wrong_shapes)
+
+
+# ---- the look-at pose ----------------------------------------------------------------------------
+from stair_lite.exercises.sensor import check_back_project, check_view_to_pose  # noqa: E402
+from stair_lite.geometry import view_to_pose  # noqa: E402
+from stair_lite.measurement import back_project  # noqa: E402
+
+
+def pose_from_axes(elevation, azimuth, radius, flip_forward=False, flip_right=False, transpose=False, centre=True):
+    t = radius * np.array([np.cos(azimuth) * np.cos(elevation), np.sin(azimuth) * np.cos(elevation), np.sin(elevation)])
+    z = -t / np.linalg.norm(t)
+    up = np.array([0.0, 0.0, 1.0])
+    if np.pi / 2 - elevation < 1e-6:
+        up = -np.array([np.cos(azimuth), np.sin(azimuth), 0.0])
+    x = np.cross(up, z) if flip_right else np.cross(z, up)
+    x = x / np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.stack([x, y, -z if flip_forward else z], axis=1)
+    pose = np.eye(4)
+    pose[:3, :3] = R.T if transpose else R
+    pose[:3, 3] = t if centre else 0.0
+    return pose
+
+
+def test_view_to_pose_accepts_the_library_and_a_hand_written_one():
+    assert check_view_to_pose(view_to_pose)
+    assert check_view_to_pose(pose_from_axes)
+
+
+@pytest.mark.parametrize("wrong, hint", [
+    (dict(flip_forward=True), "looks away from the origin"),
+    (dict(flip_right=True), "x points left"),
+    (dict(transpose=True), "transposed"),
+    (dict(centre=False), "not zero"),
+])
+def test_view_to_pose_rejects_plausible_mistakes(wrong, hint):
+    with pytest.raises(AssertionError, match=hint):
+        check_view_to_pose(lambda el, az, r: pose_from_axes(el, az, r, **wrong))
+
+
+def test_view_to_pose_rejects_swapped_angles():
+    with pytest.raises(AssertionError, match="camera centre is off|view_to_pose is wrong"):
+        check_view_to_pose(lambda el, az, r: view_to_pose(el, az, r) if el > 1.5 else pose_from_axes(az % 1.5, el, r))
+
+
+# ---- back-projection -----------------------------------------------------------------------------
+def back_project_by_hand(m, half=0.5, swap=False, as_range=False, inverse=False, keep_misses=False):
+    k = m.intrinsics
+    v, u = np.mgrid[0 : k.height, 0 : k.width]
+    if swap:
+        u, v = v, u
+    cam = np.stack([(u + half - k.cx) / k.fx, (v + half - k.cy) / k.fy, np.ones(u.shape)], axis=-1).reshape(-1, 3)
+    if as_range:
+        cam = cam / np.linalg.norm(cam, axis=1, keepdims=True)
+    depth = m.depth.reshape(-1)
+    hit = np.ones_like(depth, bool) if keep_misses else depth > 0
+    cam = cam[hit] * depth[hit, None]
+    world = (cam - m.pose[:3, 3]) @ m.pose[:3, :3] if inverse else cam @ m.pose[:3, :3].T + m.pose[:3, 3]
+    return world, m.labels.reshape(-1)[hit]
+
+
+def test_back_project_accepts_the_library_and_a_hand_written_one():
+    assert check_back_project(lambda m: (back_project(m)[0], back_project(m)[2]))
+    assert check_back_project(back_project_by_hand)
+
+
+@pytest.mark.parametrize("wrong, hint", [
+    (dict(half=0.0), "half a pixel"),
+    (dict(as_range=True), "z-depth, not range"),
+    (dict(swap=True), "swapped|wrong"),
+    (dict(inverse=True), "inverse pose"),
+    (dict(keep_misses=True), "depth 0"),
+])
+def test_back_project_rejects_plausible_mistakes(wrong, hint):
+    with pytest.raises(AssertionError, match=hint):
+        check_back_project(lambda m: back_project_by_hand(m, **wrong))
+
+
+def test_back_project_rejects_wrong_labels_and_a_stub():
+    with pytest.raises(AssertionError, match="labels"):
+        check_back_project(lambda m: (back_project(m)[0], back_project(m)[2][::-1]))
+    with pytest.raises(AssertionError, match="pair"):
+        check_back_project(lambda m: back_project(m)[0])

@@ -154,3 +154,79 @@ def check_octomap_update(fn, n_random: int = 30, seed: int = 0) -> bool:
         raise AssertionError(f"{where}: got {np.round(got, 3)}, expected {np.round(variants['right'], 3)}")
     print(f"octomap_update: correct on {len(cases)} scans")
     return True
+
+
+# --------------------------------------------------------------------------------------------------
+# STE's region-of-interest score of one ray (ExplicitMap.roi_scores)
+# --------------------------------------------------------------------------------------------------
+FREE, UNKNOWN, OCCUPIED, OUTSIDE = 0, 1, 2, -1  # the voxel states along a ray, as the exercise gives them
+
+
+def _roi_variants(state: np.ndarray, distance: np.ndarray, max_distance: float) -> dict[str, float]:
+    """The right score of a ray and what plausible mistakes give."""
+    inside = state != OUTSIDE
+    occupied = state == OCCUPIED
+    before = np.cumsum(occupied) - occupied == 0  # up to and including the first occupied voxel
+    bonus = 0.5 * (max_distance - distance) / max_distance
+    unknown = (state == UNKNOWN) & inside
+    value = np.where(unknown, 0.5 + np.maximum(0.0, bonus), 0.0)
+    n_inside = max(1, int(inside.sum()))
+    return {
+        "right": float((value * before).sum() / n_inside),
+        "through_surfaces": float(value.sum() / n_inside),
+        "per_counted": float((value * before).sum() / max(1, int((before & inside).sum()))),
+        "unnormalised": float((value * before).sum()),
+        "negative_bonus": float((np.where(unknown, 0.5 + bonus, 0.0) * before).sum() / n_inside),
+        "no_bonus": float((np.where(unknown, 0.5, 0.0) * before).sum() / n_inside),
+    }
+
+
+_ROI_HINTS = {
+    "through_surfaces": "the ray stops at the first occupied voxel: unknown voxels behind a surface cannot be seen",
+    "per_counted": ("divide by the number of the ray's samples inside the grid (state != OUTSIDE), not by the number "
+                    "counted before the surface: a ray blocked early should score less"),
+    "unnormalised": "normalise the ray's sum by its number of samples inside the grid (rays differ in length)",
+    "negative_bonus": ("the bonus is 0.5 (D - d) / D only within D voxels of a target; farther away it is 0, never "
+                       "negative (use max(0, ...))"),
+    "no_bonus": "an unknown voxel near a target scores more: 0.5 + max(0, 0.5 (D - d) / D), with d its distance in voxels",
+}
+
+
+def _roi_reference(state, distance, max_distance):
+    return _roi_variants(np.asarray(state), np.asarray(distance, np.float64), max_distance)["right"]
+
+
+def _random_ray(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """States along a ray (outside the grid at both ends, a surface somewhere or none) and distances to the nearest
+    target voxel (some beyond the bonus range)."""
+    n = int(rng.integers(12, 40))
+    state = rng.choice([FREE, UNKNOWN, UNKNOWN, OCCUPIED], size=n, p=[0.35, 0.3, 0.3, 0.05])
+    state[: int(rng.integers(0, 4))] = OUTSIDE
+    if rng.random() < 0.8:
+        state[int(rng.integers(n // 3, n))] = OCCUPIED
+    state[n - int(rng.integers(0, 3)):] = OUTSIDE
+    return state, rng.uniform(0.0, 20.0, size=n)
+
+
+@compares_with(_roi_reference)
+def check_ray_roi_score(ray_roi_score, n_trials: int = 60, seed: int = 0) -> bool:
+    """``ray_roi_score(state, distance, max_distance)``: ``state`` (S,) the voxels a ray passes, in order (FREE 0,
+    UNKNOWN 1, OCCUPIED 2, OUTSIDE -1 for a sample outside the grid), ``distance`` (S,) each voxel's distance to the
+    nearest target voxel in voxels; returns the ray's ROI score: over the voxels up to and including the first
+    occupied one, each unknown voxel scores 0.5 + max(0, 0.5 (D - d) / D), the sum divided by the number of samples
+    inside the grid."""
+    rng = np.random.default_rng(seed)
+    for _ in range(n_trials):
+        state, distance = _random_ray(rng)
+        max_distance = float(rng.choice([5.0, 10.0]))
+        got = float(_call(ray_roi_score, state.copy(), distance.copy(), max_distance))
+        variants = _roi_variants(state, distance, max_distance)
+        if np.isclose(got, variants["right"], rtol=1e-9, atol=1e-12):
+            continue
+        hint = next((h for name, h in _ROI_HINTS.items() if np.isclose(got, variants[name], rtol=1e-9, atol=1e-12)),
+                    "sum the unknown voxels' scores up to the first occupied voxel, then divide by the in-grid samples")
+        raise AssertionError(f"ray_roi_score is wrong for the ray\nstate    {state.tolist()}\ndistance "
+                             f"{np.round(distance, 1).tolist()}\nmax_distance {max_distance}: you returned {got:.5f}, "
+                             f"expected {variants['right']:.5f}\nHint: {hint}")
+    print(f"check_ray_roi_score: {n_trials} random rays agree")
+    return True

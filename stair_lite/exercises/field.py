@@ -323,3 +323,80 @@ def check_training_step(training_step, n_steps: int = 3, seed: int = 0) -> bool:
             raise AssertionError(f"after step {step} the parameters differ from the reference step's\nHint: {hint}")
     print(f"check_training_step: {n_steps} consecutive steps give the reference parameters and losses")
     return True
+
+
+# --------------------------------------------------------------------------------------------------
+# Trilinear interpolation (section 1, Eq. 1)
+# --------------------------------------------------------------------------------------------------
+def _trilinear_reference(V, x, bound=1.0):
+    r = V.shape[0]
+    p = (np.asarray(x, np.float64) + bound) / (2 * bound) * (r - 1)
+    lower = np.clip(np.floor(p), 0, r - 2).astype(int)
+    f = p - lower
+    out = np.zeros((len(p), V.shape[-1]))
+    for corner in np.ndindex(2, 2, 2):
+        c = np.array(corner)
+        weight = np.prod(np.where(c == 1, f, 1.0 - f), axis=1)
+        out += weight[:, None] * V[lower[:, 0] + c[0], lower[:, 1] + c[1], lower[:, 2] + c[2]]
+    return out
+
+
+def _trilinear_variants(V, x, bound) -> dict[str, np.ndarray]:
+    """The right values and what common mistakes give instead."""
+    r = V.shape[0]
+    nearest = np.clip(np.round((x + bound) / (2 * bound) * (r - 1)), 0, r - 1).astype(int)
+    cells = (x + bound) / (2 * bound) * r - 0.5  # align_corners=False: vertices at cell centres
+    lower = np.clip(np.floor(cells), 0, r - 2).astype(int)
+    f = np.clip(cells - lower, 0.0, 1.0)
+    centres = np.zeros((len(x), V.shape[-1]))
+    for corner in np.ndindex(2, 2, 2):
+        c = np.array(corner)
+        centres += np.prod(np.where(c == 1, f, 1.0 - f), axis=1)[:, None] * V[lower[:, 0] + c[0], lower[:, 1] + c[1],
+                                                                               lower[:, 2] + c[2]]
+    p = (x + bound) / (2 * bound) * (r - 1)
+    low = np.clip(np.floor(p), 0, r - 2).astype(int)
+    g = p - low
+    swapped = np.zeros_like(centres)
+    for corner in np.ndindex(2, 2, 2):
+        c = np.array(corner)
+        swapped += np.prod(np.where(c == 1, 1.0 - g, g), axis=1)[:, None] * V[low[:, 0] + c[0], low[:, 1] + c[1],
+                                                                              low[:, 2] + c[2]]
+    return {"right": _trilinear_reference(V, x, bound), "nearest": V[nearest[:, 0], nearest[:, 1], nearest[:, 2]],
+            "cell_centres": centres, "weights_swapped": swapped,
+            "axes_reversed": _trilinear_reference(V.transpose(2, 1, 0, 3), x, bound)}
+
+
+_TRILINEAR_HINTS = {
+    "nearest": "you returned the nearest vertex's value: interpolate between the 8 vertices of the point's cell",
+    "cell_centres": ("the vertices sit ON the cube's corners here (align_corners=True): vertex i is at -b + i 2b / (R - 1), "
+                     "so the continuous vertex coordinate is (x + b) / (2b) (R - 1), not (x + b) / (2b) R - 0.5"),
+    "weights_swapped": ("the weights are swapped: the corner at the upper end of an axis gets the fraction f, the lower "
+                        "one 1 - f (at f = 0 the point sits on the lower vertex)"),
+    "axes_reversed": "V is indexed [i, j, k] = (x, y, z): the first index goes with the point's x coordinate",
+}
+
+
+@compares_with(_trilinear_reference)
+def check_trilinear(trilinear, n_trials: int = 8, seed: int = 0) -> bool:
+    """``trilinear(V, x, bound)``: V (R, R, R, C) vertex features indexed [i, j, k] = (x, y, z) on a lattice whose corner
+    vertices sit on the corners of the cube [-bound, bound]^3; x (N, 3) points in the cube; returns (N, C)."""
+    rng = np.random.default_rng(seed)
+    for trial in range(n_trials):
+        r, c, bound = int(rng.integers(3, 7)), int(rng.integers(1, 4)), float(rng.choice([1.0, 1.5, 0.5]))
+        V = rng.normal(size=(r, r, r, c))
+        x = rng.uniform(-bound, bound, size=(200, 3))
+        x[:8] = bound * np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T  # the cube's corners
+        x[8:12, 0] = bound  # points on the upper face: they belong to the last cell
+        got = _as_array(_call(trilinear, V.copy(), x.copy(), bound), (len(x), c), "trilinear(V, x, bound)")
+        variants = _trilinear_variants(V, x, bound)
+        if _close(got, variants["right"]):
+            continue
+        hint = next((h for name, h in _TRILINEAR_HINTS.items() if _close(got, variants[name])),
+                    "weight each of the 8 corners of the point's cell by the product over the axes of f (upper corner) "
+                    "or 1 - f (lower corner), with f the fractional position inside the cell")
+        bad = int(np.argmax(np.abs(got - variants["right"]).max(axis=1)))
+        raise AssertionError(f"trilinear is wrong on a {r}^3 grid with bound {bound}: at x = {np.round(x[bad], 4)} you "
+                             f"returned {np.round(got[bad], 4)}, expected {np.round(variants['right'][bad], 4)}\n"
+                             f"Hint: {hint}")
+    print(f"check_trilinear: {n_trials} random grids (corners and upper faces included) agree")
+    return True

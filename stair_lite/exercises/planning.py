@@ -206,3 +206,137 @@ def check_area_under_curve(area_under_curve, n_random: int = 100, seed: int = 0)
                              f"expected {want:.6f}\nHint: {hint}")
     print(f"check_area_under_curve: {len(cases)} curves agree")
     return True
+
+
+# --------------------------------------------------------------------------------------------------
+# Exercise 3: the mission loop (Sec. III, Fig. 2): plan, move and measure, update the map, evaluate
+# --------------------------------------------------------------------------------------------------
+class _Log(list):
+    """The calls the stand-ins below receive, in order: ("measure", view, step), ("integrate", step), ("evaluate",
+    integrations so far), ("plan", visited views)."""
+
+
+class _SpyEvaluator:
+    def __init__(self, log, spy_map):
+        self.log, self.map = log, spy_map
+
+    def evaluate(self, reconstruction):
+        if reconstruction is not self.map:
+            raise AssertionError("world.evaluator.evaluate was given something other than the map: pass it the map")
+        n = self.map.integrations
+        self.log.append(("evaluate", n))
+        return {"psnr": 10.0 + 1.5 * n, "f1": 0.05 * n, "precision": 0.0, "completeness": 0.0}
+
+
+class _SpyWorld:
+    def __init__(self, log, spy_map, targets):
+        self.log, self.targets, self.evaluator = log, targets, _SpyEvaluator(log, spy_map)
+
+    def measure(self, view, step):
+        self.log.append(("measure", tuple(np.round(np.asarray(view, float), 9)), int(step)))
+        return ("measurement", int(step))
+
+
+class _SpyMap:
+    planning_source = object()  # what a planner reads of this map
+
+    def __init__(self, log):
+        self.log, self.integrations = log, 0
+
+    def integrate(self, measurement):
+        if not (isinstance(measurement, tuple) and measurement[:1] == ("measurement",)):
+            raise AssertionError("reconstruction.integrate was given something other than world.measure's measurement")
+        self.integrations += 1
+        self.log.append(("integrate", measurement[1]))
+        return []
+
+
+class _SpyPlanner:
+    def __init__(self, log, views):
+        self.log, self.views = log, list(views)
+
+    def next_view(self, source, visited, targets):
+        from ..planners import Decision
+
+        if source is not _SpyMap.planning_source:
+            raise AssertionError("planner.next_view was not given what the planner reads: pass "
+                                 "reconstruction.planning_source (the trained field), not the map or the world")
+        self.log.append(("plan", tuple(tuple(np.round(np.asarray(v, float), 9)) for v in np.asarray(visited).reshape(-1, 2))))
+        return Decision(view=np.array(self.views.pop(0)))
+
+
+def _mission_reference(world, reconstruction, planner, budget):
+    from ..geometry import TOP_VIEW
+
+    visited, records = [], []
+    for step in range(1, budget + 1):
+        if step == 1:
+            view = np.array(TOP_VIEW)
+        else:
+            view = planner.next_view(reconstruction.planning_source, np.array(visited), world.targets).view
+        reconstruction.integrate(world.measure(view, step))
+        result = world.evaluator.evaluate(reconstruction)
+        visited.append(np.asarray(view, float))
+        records.append({"step": step, "view_rad": [float(v) for v in view], "psnr": result["psnr"], "f1": result["f1"]})
+    return records
+
+
+def _run_with_spies(run_mission, budget, views, targets=(1,)):
+    log = _Log()
+    spy_map = _SpyMap(log)
+    records = _call(run_mission, _SpyWorld(log, spy_map, targets), spy_map, _SpyPlanner(log, views), budget)
+    return log, records
+
+
+def _mission_hint(log, want) -> str:
+    kinds, want_kinds = [e[0] for e in log], [e[0] for e in want]
+    measures = [e for e in log if e[0] == "measure"]
+    want_measures = [e for e in want if e[0] == "measure"]
+    if not measures or measures[0][1] != want_measures[0][1]:
+        return "every mission starts with the top view (geometry.TOP_VIEW), measured without planning"
+    if len(measures) != len(want_measures):
+        return (f"the budget counts measurements, the top view included: {len(want_measures)} measurements, so "
+                f"{len(want_measures) - 1} planned views (you made {len(measures)})")
+    if [e[2] for e in measures] != [e[2] for e in want_measures]:
+        return "steps are numbered from 1 (the top view) to the budget, and world.measure(view, step) takes that number"
+    if "evaluate" in kinds and kinds.index("evaluate") < kinds.index("integrate"):
+        return "evaluate the map after it has integrated the step's measurement (it scores what the map knows now)"
+    if kinds.count("evaluate") != want_kinds.count("evaluate"):
+        return "evaluate the map once per step, after integrating that step's measurement"
+    plans = [e for e in log if e[0] == "plan"]
+    want_plans = [e for e in want if e[0] == "plan"]
+    if plans != want_plans:
+        return ("the planner must see every view measured so far, in order (the top view first), so that it never "
+                "returns one of them: append each view to `visited` after measuring it")
+    return "each step: plan (from step 2 on), measure, integrate, evaluate, and record step, view_rad, psnr and f1"
+
+
+@compares_with(_mission_reference)
+def check_mission_loop(run_mission, seed: int = 0) -> bool:
+    """``run_mission(world, reconstruction, planner, budget)`` runs one mission of ``budget`` measurements: the top view
+    first, then planned views (``planner.next_view(reconstruction.planning_source, visited, world.targets).view``),
+    each measured (``world.measure(view, step)``), integrated (``reconstruction.integrate``) and evaluated
+    (``world.evaluator.evaluate(reconstruction)``); it returns one record per step with ``step``, ``view_rad``,
+    ``psnr`` and ``f1``. The checker runs it on stand-ins that log every call."""
+    rng = np.random.default_rng(seed)
+    for budget in (1, 2, 5):
+        views = [(float(rng.uniform(0.1, 1.4)), float(rng.uniform(0.0, 6.2))) for _ in range(budget - 1)]
+        log, records = _run_with_spies(run_mission, budget, views + [(0.5, 0.5)] * 3)
+        want_log, want_records = _run_with_spies(_mission_reference, budget, views)
+        if list(log) != list(want_log):
+            raise AssertionError(f"with a budget of {budget}, your loop's calls differ from a mission's.\nyours:    "
+                                 f"{[e[0] for e in log]}\nexpected: {[e[0] for e in want_log]}\n"
+                                 f"Hint: {_mission_hint(log, want_log)}")
+        if not isinstance(records, list) or len(records) != budget:
+            raise AssertionError(f"run_mission should return a list of one record per measurement ({budget}), got "
+                                 f"{type(records).__name__} of length {len(records) if hasattr(records, '__len__') else '?'}")
+        for got, want in zip(records, want_records):
+            missing = [k for k in want if k not in got]
+            if missing:
+                raise AssertionError(f"record {want['step']} lacks {missing}: record step, view_rad, psnr and f1")
+            if got["step"] != want["step"] or not np.allclose(got["view_rad"], want["view_rad"]) or \
+                    not np.isclose(got["psnr"], want["psnr"]) or not np.isclose(got["f1"], want["f1"]):
+                raise AssertionError(f"record {want['step']} is {got}, expected {want}: each record holds the step, the "
+                                     "view measured at it and the evaluation of the map after integrating it")
+    print("check_mission_loop: budgets 1, 2 and 5 call measure, integrate, evaluate and plan as a mission does")
+    return True

@@ -222,3 +222,132 @@ def check_view_angle(view_angle, n_trials: int = 200, seed: int = 0) -> bool:
         )
     print(f"check_view_angle: {len(pairs)} view pairs agree (including the top view and the azimuth seam)")
     return True
+
+
+# --------------------------------------------------------------------------------------------------
+# The look-at pose (section 2): a view on the hemisphere -> the camera-to-world pose
+# --------------------------------------------------------------------------------------------------
+def _view_to_pose_reference(elevation, azimuth, radius):
+    t = radius * np.array([np.cos(azimuth) * np.cos(elevation), np.sin(azimuth) * np.cos(elevation), np.sin(elevation)])
+    forward = -t / np.linalg.norm(t)
+    up = np.array([0.0, 0.0, 1.0]) if np.pi / 2 - elevation >= 1e-6 else -np.array([np.cos(azimuth), np.sin(azimuth), 0.0])
+    right = np.cross(forward, up)
+    right /= np.linalg.norm(right)
+    pose = np.eye(4)
+    pose[:3, :3] = np.stack([right, np.cross(forward, right), forward], axis=1)
+    pose[:3, 3] = t
+    return pose
+
+
+def _view_to_pose_hint(got, want, elevation) -> str:
+    R, t = got[:3, :3], got[:3, 3]
+    if not np.all(np.isfinite(got)):
+        return ("the pose has NaN entries: at the top view forward is parallel to world up, so z x up = 0 cannot be "
+                "normalised; use the documented image-up vector -(cos az, sin az, 0) there")
+    if _close(t, want[:3, 3]) and _close(R, want[:3, :3].T):
+        return "the rotation is transposed: its COLUMNS are the camera axes x, y, z written in world coordinates"
+    if _close(t, want[:3, 3]) and _close(R[:, 2], -want[:3, 2]):
+        return ("the camera looks away from the origin (or uses OpenGL's -z forward): OpenCV's z axis points forward, "
+                "z = -t / |t|")
+    if _close(t, want[:3, 3]) and _close(R[:, 2], want[:3, 2]) and _close(R[:, 0], -want[:3, 0]):
+        return ("x points left: x = z x up (forward cross up), in that order; then y = z x x points down and the frame "
+                "is right-handed (det R = +1)")
+    if _close(R, want[:3, :3]) and _close(t, 0.0):
+        return "the translation column is the camera centre t on the hemisphere, not zero"
+    if _close(R, want[:3, :3]) and not _close(t, want[:3, 3]):
+        return ("the camera centre is off: t = r (cos az cos el, sin az cos el, sin el); elevation is measured up from "
+                "the ground plane, azimuth around the z axis")
+    return ("pose = [x y z | t] with t = r (cos az cos el, sin az cos el, sin el), z = -t/|t|, x = z x up normalised, "
+            "y = z x x, up = (0, 0, 1) except at the top view")
+
+
+@compares_with(_view_to_pose_reference)
+def check_view_to_pose(view_to_pose, n_trials: int = 60, seed: int = 0) -> bool:
+    """``view_to_pose(elevation, azimuth, radius)`` returns the 4x4 OpenCV camera-to-world pose of a camera at the view
+    on the hemisphere of ``radius``, looking at the origin (x right, y down, z forward), with the top view's image up
+    -(cos az, sin az, 0)."""
+    rng = np.random.default_rng(seed)
+    cases = [(rng.uniform(0.0, 1.5), rng.uniform(0.0, 2 * np.pi), rng.uniform(1.0, 3.0)) for _ in range(n_trials)]
+    cases += [(np.pi / 2, 0.0, 2.0), (np.pi / 2, 1.3, 2.5), (0.0, 0.7, 2.0)]
+    for elevation, azimuth, radius in cases:
+        got = _as_array(_call(view_to_pose, elevation, azimuth, radius), (4, 4), "view_to_pose(elevation, azimuth, radius)")
+        want = _view_to_pose_reference(elevation, azimuth, radius)
+        if not _close(got, want):
+            raise AssertionError(f"view_to_pose is wrong at elevation {elevation:.3f}, azimuth {azimuth:.3f}, radius "
+                                 f"{radius:.2f}: you returned\n{np.round(got, 4)}\nexpected\n{np.round(want, 4)}\n"
+                                 f"Hint: {_view_to_pose_hint(got, want, elevation)}")
+    print(f"check_view_to_pose: {len(cases)} views (the top view included) agree")
+    return True
+
+
+# --------------------------------------------------------------------------------------------------
+# Back-projection (section 5): a depth image -> world points
+# --------------------------------------------------------------------------------------------------
+def _back_project_reference(m):
+    k = m.intrinsics
+    v, u = np.mgrid[0 : k.height, 0 : k.width]
+    cam = np.stack([(u + 0.5 - k.cx) / k.fx, (v + 0.5 - k.cy) / k.fy, np.ones(u.shape)], axis=-1).reshape(-1, 3)
+    depth = np.asarray(m.depth, np.float64).reshape(-1)
+    hit = depth > 0
+    return (cam[hit] * depth[hit, None]) @ m.pose[:3, :3].T + m.pose[:3, 3], np.asarray(m.labels).reshape(-1)[hit]
+
+
+def _random_measurement(rng: np.random.Generator) -> Measurement:
+    """A small measurement of random depths (a fifth of the pixels without a hit) from a random pose, with a camera
+    whose fx != fy and whose principal point is off-centre."""
+    w, h = int(rng.integers(7, 13)), int(rng.integers(5, 11))
+    k = Intrinsics(w, h, rng.uniform(5.0, 15.0), rng.uniform(5.0, 15.0), rng.uniform(2.0, w - 2.0), rng.uniform(2.0, h - 2.0))
+    depth = rng.uniform(0.5, 3.0, size=(h, w)) * (rng.random((h, w)) > 0.2)
+    return Measurement(rgb=rng.random((h, w, 3)), depth=depth, labels=rng.integers(0, 7, size=(h, w)),
+                       pose=_random_pose(rng), intrinsics=k)
+
+
+def _back_project_hint(m, points) -> str:
+    k, pose = m.intrinsics, m.pose
+    v, u = np.mgrid[0 : k.height, 0 : k.width]
+    depth = np.asarray(m.depth, np.float64).reshape(-1)
+    hit = depth > 0
+
+    def world(cam, scale_to_range=False):
+        cam = cam.reshape(-1, 3)[hit]
+        if scale_to_range:
+            cam = cam / np.linalg.norm(cam, axis=1, keepdims=True)
+        return (cam * depth[hit, None]) @ pose[:3, :3].T + pose[:3, 3]
+
+    ones = np.ones(u.shape)
+    right = np.stack([(u + 0.5 - k.cx) / k.fx, (v + 0.5 - k.cy) / k.fy, ones], axis=-1)
+    if points.shape != (int(hit.sum()), 3):
+        return (f"expected one point per pixel with a depth hit ({int(hit.sum())} of {depth.size}, depth > 0), got shape "
+                f"{points.shape}: leave out the pixels of depth 0 (no hit)")
+    if _close(points, world(np.stack([(u - k.cx) / k.fx, (v - k.cy) / k.fy, ones], axis=-1))):
+        return "off by half a pixel: pixel (u, v) spans [u, u + 1), so its ray goes through its centre (u + 0.5, v + 0.5)"
+    if _close(points, world(right, scale_to_range=True)):
+        return ("the depth image holds z-depth, not range: scale the ray whose z component is 1 by the depth (do not "
+                "normalise it to unit length)")
+    if _close(points, world(np.stack([(v + 0.5 - k.cx) / k.fx, (u + 0.5 - k.cy) / k.fy, ones], axis=-1))):
+        return "u and v are swapped: u is the column (x, width) and v the row (y, height); np.mgrid gives rows first"
+    if _close(points, (right.reshape(-1, 3)[hit] * depth[hit, None] - pose[:3, 3]) @ pose[:3, :3]):
+        return "you applied the inverse pose (world -> camera): camera points go to the world as R p + t"
+    return "p_world = R (d K^-1 (u + 0.5, v + 0.5, 1)) + t for every pixel with d > 0, in row-major pixel order"
+
+
+@compares_with(_back_project_reference)
+def check_back_project(back_project, n_trials: int = 12, seed: int = 0) -> bool:
+    """``back_project(m)`` takes a ``Measurement`` and returns ``(points, labels)``: the world point (N, 3) of every pixel
+    with a depth hit (depth > 0), in row-major pixel order, and those pixels' labels (N,)."""
+    rng = np.random.default_rng(seed)
+    for _ in range(n_trials):
+        m = _random_measurement(rng)
+        answer = _call(back_project, m)
+        if not isinstance(answer, tuple) or len(answer) != 2:
+            raise AssertionError(f"back_project(m) should return a pair (points, labels), got {type(answer).__name__}")
+        points, labels = np.asarray(answer[0], np.float64), np.asarray(answer[1])
+        want_points, want_labels = _back_project_reference(m)
+        if points.shape != want_points.shape or not _close(points, want_points):
+            raise AssertionError(f"back_project is wrong for a {m.intrinsics.width}x{m.intrinsics.height} measurement.\n"
+                                 f"Hint: {_back_project_hint(m, points)}")
+        if labels.shape != want_labels.shape or not np.array_equal(labels, want_labels):
+            raise AssertionError("the points are right but the labels are not: return the labels of the same pixels "
+                                 "(those with depth > 0), in the same order")
+    print(f"check_back_project: {n_trials} random measurements agree")
+    return True

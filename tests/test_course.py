@@ -33,7 +33,20 @@ def test_every_exercise_is_a_solution_cell_followed_by_a_graded_check():
                 check = nb.cells[i + 1]
                 assert grading(check).get("grade") and grading(check)["points"] > 0, f"{path.name} {g['grade_id']}"
                 assert "check_" in check.source
-    assert exercises >= 17 and len(ids) == len(set(ids))  # 17 functions to write, one grade id each
+    assert exercises >= 24 and len(ids) == len(set(ids))  # 24 solution regions to write, one grade id per cell
+
+
+def test_the_course_has_at_least_26_points_and_the_table_of_course_md_says_how_many():
+    points = {}
+    for path in NOTEBOOKS:
+        cells = nbformat.read(path, as_version=4).cells
+        points[path.name[:2]] = sum(grading(c).get("points", 0) for c in cells if grading(c).get("grade"))
+    assert sum(points.values()) >= 26
+    text = (course.NOTEBOOK_DIR.parent / "COURSE.md").read_text()
+    assert f"There are {sum(points.values())} points in all" in text
+    for number, n in points.items():
+        row = next(line for line in text.splitlines() if line.startswith(f"| {number} |"))
+        assert row.rstrip().endswith(f"| {n} |"), row
 
 
 def test_the_student_release_holds_no_solution_code(tmp_path):
@@ -117,9 +130,9 @@ def test_grading_gives_full_points_to_the_solutions_and_fewer_to_a_wrong_answer(
     shutil.copy(tmp_path / "release" / source.name, submissions / "untouched" / source.name)
 
     grades = {g.student: g for g in course.grade(submissions, [source], keep=tmp_path / "executed", workers=2)}
-    assert grades["solutions"].score == grades["solutions"].max_score == 3 and not grades["solutions"].failed
-    assert grades["one_wrong"].score == 2 and grades["one_wrong"].failed == ("01_scale_intrinsics_check",)
-    assert grades["untouched"].score == 0 and len(grades["untouched"].failed) == 3
+    assert grades["solutions"].score == grades["solutions"].max_score == 5 and not grades["solutions"].failed
+    assert grades["one_wrong"].score == 4 and grades["one_wrong"].failed == ("01_scale_intrinsics_check",)
+    assert grades["untouched"].score == 0 and len(grades["untouched"].failed) == 5
     executed = nbformat.read(tmp_path / "executed" / "untouched" / course.ASSIGNMENT / source.name, as_version=4)
     errors = [c for c in executed.cells if any(o.get("output_type") == "error" for o in c.get("outputs", []))]
     assert errors and all(grading(c).get("grade") for c in errors)  # only the checks fail; the rest ran

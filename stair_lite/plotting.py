@@ -44,10 +44,16 @@ def show_measurement(m, title: str = "", axes=None):
     axes[2].set_title("labels")
     for ax in axes:
         ax.set_axis_off()
-    present = np.unique(m.labels)
-    handles = [plt.Rectangle((0, 0), 1, 1, color=CLASS_COLOURS[c]) for c in present]
-    axes[2].legend(handles, [CLASS_NAMES[c] for c in present], loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
+    label_legend(axes[2], m.labels)
     return axes
+
+
+def label_legend(ax, *label_images):
+    """A legend of the class colours (``colourise_labels``) of every class that occurs in the label images, to the
+    right of ``ax``."""
+    present = np.unique(np.concatenate([np.asarray(labels).reshape(-1) for labels in label_images]))
+    handles = [plt.Rectangle((0, 0), 1, 1, color=CLASS_COLOURS[c], ec="k", lw=0.3) for c in present]
+    ax.legend(handles, [CLASS_NAMES[c] for c in present], loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
 
 
 def draw_mesh(ax, mesh, max_faces: int = 4000, alpha: float = 1.0, colour=None):
@@ -143,8 +149,33 @@ def plot_camera_path(scene, records, ax=None, title: str = ""):
     return ax
 
 
-def plot_sweep_curves(rows, metric: str = "psnr", variants=None, axes=None, ylabel: str | None = None):
+def plot_views_top_down(ax, records, title: str = "", colour="tab:orange"):
+    """A mission's views seen from above the hemisphere: the camera centres (x, y) / r joined in order and numbered,
+    with rings at 0, 30 and 60 deg elevation (radius cos(elevation)), so that elevation reads off the distance from
+    the centre (the top view)."""
+    views = np.radians([r["view_deg"] for r in records])
+    for elevation in (0, 30, 60):
+        radius = np.cos(np.radians(elevation))
+        ax.add_patch(plt.Circle((0, 0), radius, fill=False, color="grey", lw=0.6, ls="-" if elevation == 0 else ":"))
+        ax.annotate(f"{elevation} deg", (radius * np.cos(-0.6), radius * np.sin(-0.6)), fontsize=6, color="grey")
+    p = view_to_position(views[:, 0], views[:, 1], 1.0)
+    ax.plot(p[:, 0], p[:, 1], "-", color=colour, lw=0.8, alpha=0.6)
+    ax.scatter(p[:, 0], p[:, 1], color=colour, s=60, edgecolor="k", lw=0.5, zorder=3)
+    for step, (x, y) in enumerate(p[:, :2], start=1):
+        ax.annotate(str(step), (x, y), fontsize=7, ha="center", va="center", zorder=4)
+    ax.set_aspect("equal")
+    ax.set_xlim(-1.1, 1.1)
+    ax.set_ylim(-1.1, 1.1)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_title(title)
+    return ax
+
+
+def plot_sweep_curves(rows, metric: str = "psnr", variants=None, axes=None, ylabel: str | None = None,
+                      title: str | None = None, legend: bool = True):
     """One panel per scene, one line per variant: mean over seeds with a shaded +-1 std band (paper Fig. 4).
+    ``title`` replaces the scene's name as the panels' title; ``legend=False`` leaves the legend to the caller.
 
     As in the paper's Fig. 5, a cross-validation variant is dashed and shares the colour of the variant
     whose measurements it uses (``stair_explicit`` that of ``stair``, ``ste_implicit`` that of ``ste``).
@@ -166,11 +197,12 @@ def plot_sweep_curves(rows, metric: str = "psnr", variants=None, axes=None, ylab
             style = "--" if variant in CROSS_VALIDATION else "-"
             ax.plot(steps, mean, style, color=colour[variant], label=f"{variant} (n={n})")
             ax.fill_between(steps, mean - std, mean + std, color=colour[variant], alpha=0.15)
-        ax.set_title(scene)
+        ax.set_title(title or scene)
         ax.set_xlabel("measurements")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel(ylabel or metric)
-    next((ax for ax in axes[::-1] if ax.lines), axes[-1]).legend(fontsize=7, loc="lower right")
+    if legend:
+        next((ax for ax in axes[::-1] if ax.lines), axes[-1]).legend(fontsize=7, loc="lower right")
     return axes
 
 

@@ -45,12 +45,19 @@ def _snapshot(snapshots, k: int) -> dict:
     return snapshots[k - 1]
 
 
-def draw_step_map(ax, records, k: int, snapshot: dict | None = None, footprint=None, legend: bool = True):
-    """Top-down hemisphere map for step k: utility of candidate views after k measurements (if given),
-    the views measured so far joined in order, step k ringed, and the view measured next as a star."""
+def draw_step_map(ax, records, k: int, snapshot: dict | None = None, footprint=None, legend: bool = True,
+                  relative: bool = False):
+    """Top-down hemisphere map for step k: utility of candidate views after k measurements (if given; with
+    ``relative``, as a share of the step's largest), the views measured so far joined in order, step k ringed, and
+    the view measured next as a star. Returns the utility's scatter (None without one), for a colour bar."""
     snapshot = snapshot or {}
+    points = None
     if "views" in snapshot and "values" in snapshot:
-        hemisphere_scatter(ax, snapshot["views"], snapshot["values"], s=14, alpha=0.9)
+        values = np.asarray(snapshot["values"], dtype=float)
+        if relative:
+            values = values / max(values.max(), 1e-12)
+        points = hemisphere_scatter(ax, snapshot["views"], values, s=14, alpha=0.9, vmin=0 if relative else None,
+                                    vmax=1 if relative else None)
     else:
         hemisphere_scatter(ax, np.zeros((0, 2)))
     if footprint is not None:
@@ -68,6 +75,7 @@ def draw_step_map(ax, records, k: int, snapshot: dict | None = None, footprint=N
     ax.set_ylabel("")
     ax.set_xticks([])
     ax.set_yticks([])
+    return points
 
 
 def _fmt(value, spec: str) -> str:
@@ -168,13 +176,15 @@ def mission_explorer(records, scene=None, snapshots=None, start: int | None = No
     return MissionExplorer(records, scene, snapshots, start)
 
 
-def plot_mission_steps(records, snapshots=None, scene=None, max_columns: int = 10):
-    """Static fallback: for every step, the top-down map (top row) and the snapshot image (bottom row)."""
+def plot_mission_steps(records, snapshots=None, scene=None, max_columns: int = 5):
+    """Static fallback: for every step, the top-down map (top row; the utility as a share of the step's largest, one
+    colour bar for all) and the snapshot image (bottom row)."""
     n = len(records)
     cols = min(n, max_columns)
     rows_per = 2 if snapshots is not None and any("image" in (s or {}) for s in snapshots) else 1
     blocks = -(-n // cols)
-    fig, axes = plt.subplots(rows_per * blocks, cols, figsize=(1.9 * cols, 2.0 * rows_per * blocks), squeeze=False)
+    fig, axes = plt.subplots(rows_per * blocks, cols, figsize=(2.8 * cols, 2.9 * rows_per * blocks), squeeze=False)
+    mappable = None
     footprint = _scene_footprint(scene) if scene is not None else None
     for ax in axes.ravel():
         ax.set_axis_off()
@@ -184,9 +194,12 @@ def plot_mission_steps(records, snapshots=None, scene=None, max_columns: int = 1
         snap = _snapshot(snapshots, k)
         ax = axes[row, col]
         ax.set_axis_on()
-        draw_step_map(ax, records, k, snap, footprint, legend=False)
-        ax.set_title(f"step {k}: {records[i]['psnr']:.1f} dB, F1 {records[i]['f1']:.2f}", fontsize=7)
+        mappable = draw_step_map(ax, records, k, snap, footprint, legend=(i == 0), relative=True) or mappable
+        ax.set_title(f"step {k}: {records[i]['psnr']:.1f} dB, F1 {records[i]['f1']:.2f}", fontsize=8)
         if rows_per == 2 and "image" in snap:
             axes[row + 1, col].imshow(np.clip(snap["image"], 0, 1))
+            axes[row + 1, col].set_title(f"target-only render, step {k}", fontsize=7)
     fig.tight_layout()
+    if mappable is not None:
+        fig.colorbar(mappable, ax=axes, fraction=0.015, label="utility of a candidate view / the step's largest")
     return fig

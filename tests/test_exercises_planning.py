@@ -158,7 +158,6 @@ def test_fake_records_look_like_a_mission():
 
 # ---- the mission loop ----------------------------------------------------------------------------
 from stair_lite.exercises.planning import _mission_reference, check_mission_loop  # noqa: E402
-from stair_lite.geometry import TOP_VIEW  # noqa: E402
 
 
 def loop(world, reconstruction, planner, budget, top_first=True, extra=0, zero_based=False, evaluate_first=False,

@@ -70,8 +70,10 @@ def test_explorer_rejects_mismatched_snapshots():
 def test_static_fallback_has_a_panel_per_step():
     records, snapshots = fake_mission(n=5)
     fig = plot_mission_steps(records, snapshots)
-    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title().startswith("step")]
     assert len(titles) == 5 and titles[0].startswith("step 1:")
+    bars = [ax for ax in fig.axes if ax.get_ylabel().startswith("utility of a candidate view")]
+    assert len(bars) == 1  # one colour bar for every step's map (utilities as shares of the step's largest)
     assert step_summary(records, 3).startswith("step 3/5")
     matplotlib.pyplot.close(fig)
 
@@ -82,5 +84,23 @@ def test_grading_shows_the_explorer_as_its_static_figure(monkeypatch):
     assert isinstance(mission_explorer(records, snapshots=snapshots), MissionExplorer)
     monkeypatch.setenv("STAIR_STATIC_WIDGETS", "1")
     fig = mission_explorer(records, snapshots=snapshots)
-    assert isinstance(fig, matplotlib.figure.Figure) and len([ax for ax in fig.axes if ax.get_title()]) == 4
+    assert isinstance(fig, matplotlib.figure.Figure) and len([ax for ax in fig.axes if ax.get_title().startswith("step")]) == 4
+    matplotlib.pyplot.close(fig)
+
+
+def test_top_down_views_put_each_view_at_cos_elevation_from_the_centre_and_number_them():
+    from stair_lite.plotting import plot_views_top_down
+
+    records, _ = fake_mission(n=6)
+    fig, ax = matplotlib.pyplot.subplots()
+    plot_views_top_down(ax, records, "six views")
+    numbers = {t.get_text(): t.xy for t in ax.texts if t.get_text().isdigit()}
+    assert sorted(numbers, key=int) == [str(k) for k in range(1, 7)]
+    for k, record in enumerate(records, start=1):
+        elevation, azimuth = record["view_rad"]
+        x, y = numbers[str(k)]
+        assert np.isclose(np.hypot(x, y), np.cos(elevation), atol=1e-9)  # the rings read elevation off the radius
+        if k > 1:
+            assert np.isclose(np.arctan2(y, x) % (2 * np.pi), azimuth % (2 * np.pi), atol=1e-9)
+    assert {t.get_text() for t in ax.texts} >= {"0 deg", "30 deg", "60 deg"}
     matplotlib.pyplot.close(fig)

@@ -7,7 +7,7 @@ import numpy as np
 from ..classes import colourise_labels
 from ..evaluation import psnr
 from ..geometry import view_to_pose, view_to_position
-from ..plotting import hemisphere_scatter
+from ..plotting import hemisphere_scatter, label_legend
 from ..rendering import render_image
 from ..simulator import target_only_image
 
@@ -34,6 +34,7 @@ def show_beliefs(field, simulator, render_cfg, targets, views, names, suptitle):
             ax.set_title(title, fontsize=8)
             ax.set_axis_off()
         beliefs.append({"belief": belief, "target_only": target_only, "truth": truth, "gt": gt_target_only})
+    label_legend(axes[0, 2], *[b["belief"]["labels"] for b in beliefs])
     fig.suptitle(suptitle, fontsize=10)
     plt.tight_layout()
     return beliefs

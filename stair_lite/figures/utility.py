@@ -5,6 +5,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..classes import colourise_labels
+from ..plotting import label_legend
 
 
 def plot_uncertainty_panels(views, camera_images, h_maps, labels, target_masks):
@@ -23,5 +24,6 @@ def plot_uncertainty_panels(views, camera_images, h_maps, labels, target_masks):
         row[3].set_title(f"H(r) on targets: U_et = {(h * mask).sum():.0f}", fontsize=9)
         for ax in row:
             ax.set_axis_off()
+    label_legend(axes[0, 2], *labels)
     fig.colorbar(im, ax=axes, fraction=0.02, label="H(r) [nats]")
     return fig

@@ -221,3 +221,18 @@ def test_occupied_share_below_counts_the_phantom_under_the_ground():
     share = implicit.occupied_share_below(-0.05)
     assert 0.3 < expected and abs(share - expected) < 0.5 / len(below), (share, expected)
     assert ExplicitMap.from_preset(preset).occupied_share_below(-0.05) == 0.0
+
+
+def test_the_point_tree_finds_the_same_nearest_distances_as_scipys_default_tree():
+    """``point_tree`` changes only how the search runs: on a shell and points inside, outside and on it (the slow case
+    of the default tree: nearest samples far away), the distances equal a default cKDTree's bit for bit."""
+    from stair_lite.evaluation import point_tree
+
+    rng = np.random.default_rng(0)
+    shell = rng.normal(size=(20000, 3))
+    shell = 0.4 * shell / np.linalg.norm(shell, axis=1, keepdims=True)
+    shell = shell[shell[:, 2] > -0.1]  # a shell open at the bottom, as a map that has not seen an object's underside
+    queries = np.concatenate([shell[:500] * rng.uniform(0.0, 2.0, size=(500, 1)), rng.uniform(-1, 1, size=(500, 3))])
+    ours, _ = point_tree(shell).query(queries)
+    default, _ = cKDTree(shell).query(queries)
+    np.testing.assert_array_equal(ours, default)

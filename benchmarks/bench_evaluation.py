@@ -1,0 +1,88 @@
+"""The paper's evaluation protocol on this CPU, phase by phase (the speed issue's "evaluation in seconds").
+
+A paper-preset field is trained on three views of scene 1 (a cut schedule: 60 iterations of 512 + 512 rays per
+view, as a field is after its first views), then the evaluator's phases are timed: the target skip grid, the target-only
+renders of the test views (100 at 400 x 400 at the paper preset), the target mesh (a 256^3 lattice) and its surface
+samples (1e6), and the nearest-distance scores, both with scipy's default KD-tree and with ``evaluation.point_tree``
+(the same distances; the figure is the ratio). Medians over ``--repeats``.
+
+Run: .venv/bin/python benchmarks/bench_evaluation.py [--repeats 3] [--views 100] [--preset paper]
+"""
+import argparse
+import statistics
+import time
+from dataclasses import replace
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+import stair_lite  # noqa: F401
+from stair_lite.config import get_preset
+from stair_lite.evaluation import GROUND_CUT_Z, mesh_scores_from_points, point_tree, sample_surface
+from stair_lite.geometry import TOP_VIEW, fibonacci_hemisphere
+from stair_lite.maps import IMPLICIT
+from stair_lite.mission import World, build_map
+
+
+def timed(fn, repeats: int):
+    """The median wall time of ``repeats`` calls and the last call's result."""
+    times, result = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        result = fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), result
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--views", type=int, default=None, help="test views rendered (default: the preset's)")
+    parser.add_argument("--preset", default="paper")
+    parser.add_argument("--scene", default="scene1")
+    args = parser.parse_args()
+    preset = get_preset(args.preset)
+    world = World.build(args.scene, preset)
+    implicit = build_map(IMPLICIT, preset, seed=0)
+    trainer = implicit.trainer
+    full = trainer.cfg
+    trainer.cfg = replace(full, rays_new=512, rays_replay=512)
+    for step, view in enumerate([np.array(TOP_VIEW)] + list(fibonacci_hemisphere(2, azimuth_offset=0.3)), start=1):
+        implicit.add_measurement(world.measure(view, step))
+        trainer.update(60)
+    trainer.cfg = full
+    evaluator, targets = world.evaluator, world.targets
+    poses = evaluator.poses[: args.views or len(evaluator.poses)]
+    implicit._target_skip = None
+    t_skip, _ = timed(lambda: implicit.target_skip_grid(targets), 1)
+    t_render, _ = timed(lambda: list(implicit.target_only_renders(evaluator.intrinsics, poses, targets, GROUND_CUT_Z)),
+                        args.repeats)
+    t_mesh, mesh = timed(lambda: implicit.target_mesh(targets), args.repeats)
+    n, seed = preset.eval.mesh_points, evaluator.seed + 1
+    t_sample, pred = timed(lambda: sample_surface(mesh, n, seed), args.repeats)
+    cfg = preset.eval
+
+    def scores(tree_of):
+        d_pred, _ = tree_of(evaluator.gt_points).query(pred, workers=-1)
+        d_gt, _ = tree_of(pred).query(evaluator.gt_points, workers=-1)
+        return (d_pred.mean() + d_gt.mean()) / 2
+
+    t_default, chamfer_default = timed(lambda: scores(cKDTree), args.repeats)
+    t_ours, chamfer_ours = timed(lambda: scores(point_tree), args.repeats)
+    assert chamfer_ours == chamfer_default  # the same nearest distances
+    score = mesh_scores_from_points(pred, point_tree(evaluator.gt_points), evaluator.gt_points, cfg.f1_threshold)
+    print(f"{args.preset} preset, {args.scene}, a field after 3 views (F1 {score.f1:.3f}, chamfer {score.chamfer:.4f} m); "
+          f"medians over {args.repeats}:")
+    print(f"  target skip grid                 {t_skip:7.2f} s (once per field state)")
+    print(f"  target-only renders, {len(poses):3d} views     {t_render:7.2f} s ({cfg.image_scale:g} x 400 px, "
+          f"{cfg.render_samples} samples per ray)")
+    print(f"  target mesh ({cfg.mesh_resolution}^3 lattice)       {t_mesh:7.2f} s")
+    print(f"  surface samples ({n:.0e})         {t_sample:7.2f} s")
+    print(f"  nearest distances, scipy default {t_default:7.2f} s")
+    print(f"  nearest distances, point_tree    {t_ours:7.2f} s  ({t_default / t_ours:.1f}x faster, the same distances)")
+    total = t_skip + t_render * len(evaluator.poses) / len(poses) + t_mesh + t_sample + t_ours
+    print(f"  one evaluation (renders scaled to all {len(evaluator.poses)} views): about {total:.0f} s")
+
+
+if __name__ == "__main__":
+    main()

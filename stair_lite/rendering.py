@@ -89,6 +89,24 @@ def sample_along_rays(
     return t
 
 
+def samples_in_box(t_near: torch.Tensor, t_far: torch.Tensor, n_samples: int, origins: torch.Tensor, dirs: torch.Tensor,
+                   box: tuple[torch.Tensor, torch.Tensor], near: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """The unjittered samples of ``sample_along_rays`` (strata centres of [t_near, t_far]) that can lie in ``box`` (low,
+    high corners): per ray, a window of consecutive sample indices with one sample of margin at either end, as
+    parameters t (R, W) computed as ``sample_along_rays`` computes them (the same floats), and which of them belong to
+    the ray's window (R, W) (W: the widest window of the rays). Every sample outside the windows lies outside the box."""
+    b_near, b_far, crosses = ray_box_intersection(origins, dirs, box[1], near, low=box[0])
+    length = (t_far - t_near).clamp(min=1e-12)
+    first = (torch.floor((b_near - t_near) / length * n_samples - 0.5) - 1).clamp(0, n_samples).long()
+    last = (torch.ceil((b_far - t_near) / length * n_samples - 0.5) + 2).clamp(0, n_samples).long()
+    last = torch.where(crosses, torch.maximum(last, first), first)
+    width = int((last - first).max()) if len(first) else 0
+    index = first[:, None] + torch.arange(width, device=origins.device)
+    valid = index < last[:, None]
+    t = t_near[:, None] + (t_far - t_near)[:, None] * (index.clamp(max=n_samples - 1).to(t_near.dtype) + 0.5) / n_samples
+    return t, valid
+
+
 def compositing_weights(occ: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Eq. 5: transmittance T_i = prod_{j<i} (1 - o_j) and weights w_i = o_i T_i, for occ (R, S)."""
     transmittance = torch.cumprod(torch.cat([torch.ones_like(occ[:, :1]), 1.0 - occ[:, :-1]], dim=1), dim=1)
@@ -152,26 +170,33 @@ def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: fl
 
 def sample_field(field, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderConfig, n_samples: int | None = None,
                  generator: torch.Generator | None = None, depth: torch.Tensor | None = None,
-                 skip: SkipGrid | None = None, semantics: bool = False) -> dict[str, torch.Tensor]:
+                 skip: SkipGrid | None = None, semantics: bool = False, box=None) -> dict[str, torch.Tensor]:
     """Samples along rays and the field's occupancy there: parameters t (R, S), points (R, S, 3), occupancy
     (R, S), zero where the field is not evaluated (outside the cube, or in a cell ``skip`` leaves out), the
     flat mask ``evaluate`` of evaluated samples and their ``located`` corners (``SemanticField.locate``).
     With ``semantics``, also the class logits (R, S, P) of the evaluated samples (zero elsewhere) and their
     colour features ``f_rgb``, from one lookup of the appearance grid. With a measured ``depth`` (training), a ray
-    that hit something is sampled only up to ``cfg.behind_surface`` behind it."""
+    that hit something is sampled only up to ``cfg.behind_surface`` behind it. With ``box`` (``SkipGrid.box`` of
+    ``skip``; unjittered samples only), only each ray's samples that can lie in the box are taken (``samples_in_box``):
+    the others would be skipped anyway, so composites over them are those over all samples."""
     t_near, t_far, hit = ray_box_intersection(origins, dirs, field.lattice.bound, cfg.near)
     if depth is not None and cfg.behind_surface is not None:
         # a measured depth tells what lies in front of the surface and nothing of what lies behind it: a training
         # ray that hit something ends just behind its surface, so it teaches nothing about the volume beyond
         t_far = torch.where(depth > 0, torch.minimum(t_far, depth + cfg.behind_surface), t_far)
     t_far = torch.where(hit & (t_far > t_near), t_far, t_near + 1e-3)
-    t = sample_along_rays(
-        t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
-        cfg.surface_band,
-    )
+    if box is not None:
+        if generator is not None or depth is not None:
+            raise ValueError("sample_field: a box window needs unjittered samples without a measured depth")
+        t, in_window = samples_in_box(t_near, t_far, n_samples or cfg.n_samples, origins, dirs, box, cfg.near)
+    else:
+        t = sample_along_rays(
+            t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
+            cfg.surface_band,
+        )
     r, s = t.shape
     points = origins[:, None, :] + t[..., None] * dirs[:, None, :]
-    evaluate = hit[:, None].expand(r, s)
+    evaluate = hit[:, None].expand(r, s) if box is None else hit[:, None] & in_window
     if skip is not None:
         evaluate = evaluate & skip.lookup(points)
     evaluate = evaluate.reshape(-1)
@@ -326,8 +351,9 @@ def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, c
     live = rays_through(skip, origins, dirs, cfg)
     images = torch.ones(2, len(origins), 3, device=field.device)  # the full and the cut composite of every ray
     rows = live.nonzero().squeeze(1)
+    box = skip.box()
     for chunk in torch.split(rows, cfg.chunk_rays) if len(rows) else ():
-        samples = sample_field(field, origins[chunk], dirs[chunk], cfg, skip=skip, semantics=True)
+        samples = sample_field(field, origins[chunk], dirs[chunk], cfg, skip=skip, semantics=True, box=box)
         occ = samples["occ"] * is_target(samples["sem_logits"], targets)
         above = lattice.axis(occ.device)[lattice.nearest_layer(samples["points"][..., 2])] >= z_min
         weights = [compositing_weights(o_)[0] for o_ in (occ, occ * above)]
@@ -354,6 +380,7 @@ def rays_through(skip: SkipGrid, origins: torch.Tensor, dirs: torch.Tensor, cfg:
     for chunk in torch.split(rows, cfg.chunk_rays):
         o, d = origins[chunk], dirs[chunk]
         t_near, t_far, hit = ray_box_intersection(o, d, skip.lattice.bound, cfg.near)
-        t = sample_along_rays(t_near, torch.where(hit, t_far, t_near + 1e-3), n_samples or cfg.n_samples)
-        live[chunk] = hit & skip.lookup(o[:, None, :] + t[..., None] * d[:, None, :]).any(dim=1)
+        t, in_window = samples_in_box(t_near, torch.where(hit, t_far, t_near + 1e-3), n_samples or cfg.n_samples, o, d,
+                                      box, cfg.near)
+        live[chunk] = hit & (in_window & skip.lookup(o[:, None, :] + t[..., None] * d[:, None, :])).any(dim=1)
     return live

@@ -155,3 +155,31 @@ def test_lattice_block_holds_the_vertices_in_a_box():
     inside = ((full >= torch.tensor([-0.85, -1e-6, 0.95])) & (full <= torch.tensor([-0.19, 1e-6, 2.0]))).all(dim=1)
     assert torch.equal(points, full[inside])
     assert lattice.block(torch.tensor([0.1, 0.1, 0.1]), torch.tensor([0.15, 0.9, 0.9]))[0] == slice(6, 6)  # none
+
+
+def test_box_windows_hold_every_kept_sample_with_the_same_parameters():
+    """``samples_in_box`` gives, per ray, the samples ``sample_along_rays`` would give (the same floats) over a window
+    that holds every sample a skip grid keeps, so renders over the windows are renders over all samples."""
+    from stair_lite.config import RenderConfig
+    from stair_lite.geometry import Intrinsics, pixel_rays, view_to_pose
+    from stair_lite.lattice import Lattice
+    from stair_lite.rendering import SkipGrid, samples_in_box
+
+    lattice, cfg = Lattice(24), RenderConfig(n_samples=64)
+    keep = torch.zeros(24, 24, 24, dtype=torch.bool)
+    keep[4:9, 6:15, 10:14] = True
+    skip = SkipGrid(keep, lattice)
+    k = Intrinsics.from_fov().scaled(0.1)
+    for view in ((0.4, 1.0), (1.3, 4.0), (np.pi / 2, 0.0)):
+        o, d = (torch.as_tensor(a, dtype=torch.float32) for a in pixel_rays(k, view_to_pose(*view)))
+        t_near, t_far, hit = ray_box_intersection(o, d, lattice.bound, cfg.near)
+        t_far = torch.where(hit & (t_far > t_near), t_far, t_near + 1e-3)
+        every = sample_along_rays(t_near, t_far, cfg.n_samples)
+        kept = hit[:, None] & skip.lookup(o[:, None, :] + every[..., None] * d[:, None, :])
+        window, valid = samples_in_box(t_near, t_far, cfg.n_samples, o, d, skip.box(), cfg.near)
+        position = torch.searchsorted(every.contiguous(), window.contiguous())  # where each window sample sits
+        assert torch.equal(torch.gather(every, 1, position.clamp(max=cfg.n_samples - 1))[valid], window[valid])
+        in_windows = torch.zeros_like(kept)
+        in_windows.scatter_(1, position.clamp(max=cfg.n_samples - 1), valid)
+        assert not (kept & ~in_windows).any()  # no kept sample outside its ray's window
+        assert valid.shape[1] < cfg.n_samples  # and the windows are shorter than the rays

@@ -328,12 +328,10 @@ def check_training_step(training_step, n_steps: int = 3, seed: int = 0) -> bool:
 # --------------------------------------------------------------------------------------------------
 # Trilinear interpolation (section 1, Eq. 1)
 # --------------------------------------------------------------------------------------------------
-def _trilinear_reference(V, x, bound=1.0):
-    r = V.shape[0]
-    p = (np.asarray(x, np.float64) + bound) / (2 * bound) * (r - 1)
-    lower = np.clip(np.floor(p), 0, r - 2).astype(int)
-    f = p - lower
-    out = np.zeros((len(p), V.shape[-1]))
+def _weighted_corners(V, lower, f):
+    """Sum over the 8 corners of each point's cell (lower corner ``lower`` (N, 3)) of the corner's value times the product
+    over the axes of f (upper corner) or 1 - f (lower corner)."""
+    out = np.zeros((len(lower), V.shape[-1]))
     for corner in np.ndindex(2, 2, 2):
         c = np.array(corner)
         weight = np.prod(np.where(c == 1, f, 1.0 - f), axis=1)
@@ -341,28 +339,26 @@ def _trilinear_reference(V, x, bound=1.0):
     return out
 
 
+def _cell_and_fraction(p, r):
+    """The lower corner of the cell of continuous vertex coordinates p (the last cell on the upper face) and the
+    fractional position in it."""
+    lower = np.clip(np.floor(p), 0, r - 2).astype(int)
+    return lower, np.clip(p - lower, 0.0, 1.0)
+
+
+def _trilinear_reference(V, x, bound=1.0):
+    r = V.shape[0]
+    return _weighted_corners(V, *_cell_and_fraction((np.asarray(x, np.float64) + bound) / (2 * bound) * (r - 1), r))
+
+
 def _trilinear_variants(V, x, bound) -> dict[str, np.ndarray]:
     """The right values and what common mistakes give instead."""
     r = V.shape[0]
     nearest = np.clip(np.round((x + bound) / (2 * bound) * (r - 1)), 0, r - 1).astype(int)
-    cells = (x + bound) / (2 * bound) * r - 0.5  # align_corners=False: vertices at cell centres
-    lower = np.clip(np.floor(cells), 0, r - 2).astype(int)
-    f = np.clip(cells - lower, 0.0, 1.0)
-    centres = np.zeros((len(x), V.shape[-1]))
-    for corner in np.ndindex(2, 2, 2):
-        c = np.array(corner)
-        centres += np.prod(np.where(c == 1, f, 1.0 - f), axis=1)[:, None] * V[lower[:, 0] + c[0], lower[:, 1] + c[1],
-                                                                               lower[:, 2] + c[2]]
-    p = (x + bound) / (2 * bound) * (r - 1)
-    low = np.clip(np.floor(p), 0, r - 2).astype(int)
-    g = p - low
-    swapped = np.zeros_like(centres)
-    for corner in np.ndindex(2, 2, 2):
-        c = np.array(corner)
-        swapped += np.prod(np.where(c == 1, 1.0 - g, g), axis=1)[:, None] * V[low[:, 0] + c[0], low[:, 1] + c[1],
-                                                                              low[:, 2] + c[2]]
+    lower, f = _cell_and_fraction((x + bound) / (2 * bound) * (r - 1), r)
     return {"right": _trilinear_reference(V, x, bound), "nearest": V[nearest[:, 0], nearest[:, 1], nearest[:, 2]],
-            "cell_centres": centres, "weights_swapped": swapped,
+            "cell_centres": _weighted_corners(V, *_cell_and_fraction((x + bound) / (2 * bound) * r - 0.5, r)),
+            "weights_swapped": _weighted_corners(V, lower, 1.0 - f),
             "axes_reversed": _trilinear_reference(V.transpose(2, 1, 0, 3), x, bound)}
 
 

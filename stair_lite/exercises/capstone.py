@@ -16,8 +16,8 @@ import numpy as np
 
 from ..config import get_preset
 from ..geometry import TOP_VIEW, fibonacci_hemisphere
-from ..planners import MIN_SEPARATION, Decision, Planner, far_enough
-from .common import call as _call
+from ..planners import MIN_SEPARATION, Decision, Planner, far_enough, planner_class
+from .common import call as _call, compares_with
 
 _STEPS = 5  # planning steps checked
 
@@ -36,9 +36,9 @@ def _trained_source(preset):
     return implicit.field, load_scene("scene1").targets
 
 
-def _views_of(planner_class, preset, source, targets, seed: int) -> list[np.ndarray]:
+def _views_of(cls, preset, source, targets, seed: int) -> list[np.ndarray]:
     """The views of ``_STEPS`` planning steps from the top view, each added to the visited ones."""
-    planner = planner_class.from_preset(preset, np.random.default_rng(seed))
+    planner = cls.from_preset(preset, np.random.default_rng(seed))
     visited = [np.array(TOP_VIEW)]
     for step in range(_STEPS):
         decision = _call(planner.next_view, source, np.array(visited), targets)
@@ -58,19 +58,20 @@ def _views_of(planner_class, preset, source, targets, seed: int) -> list[np.ndar
     return visited[1:]
 
 
-def check_capstone_planner(planner_class, seed: int = 0) -> bool:
-    """``planner_class``: the learner's planner (a subclass of ``stair_lite.planners.Planner``, see the docstring of
-    this module for what is checked)."""
-    if not (isinstance(planner_class, type) and issubclass(planner_class, Planner)):
-        raise AssertionError(f"{planner_class!r} is not a subclass of stair_lite.planners.Planner: write "
+@compares_with(planner_class("max_distance"))  # what the cells after the check use until the learner's planner passes
+def check_capstone_planner(learners_planner, seed: int = 0) -> bool:
+    """``learners_planner``: the learner's planner class (a subclass of ``stair_lite.planners.Planner``; the docstring of
+    this module says what is checked)."""
+    if not (isinstance(learners_planner, type) and issubclass(learners_planner, Planner)):
+        raise AssertionError(f"{learners_planner!r} is not a subclass of stair_lite.planners.Planner: write "
                              "`class MyPlanner(Planner):` and pass the class itself (not an instance)")
-    if planner_class.reads not in (None, "implicit"):
-        raise AssertionError(f"reads = {planner_class.reads!r}: the headroom instrument measures planners that read "
+    if learners_planner.reads not in (None, "implicit"):
+        raise AssertionError(f"reads = {learners_planner.reads!r}: the headroom instrument measures planners that read "
                              "the field (\"implicit\") or no map (None)")
     preset = get_preset("smoke")
     field, targets = _trained_source(preset)
-    source = field if planner_class.reads == "implicit" else None
-    planner = planner_class.from_preset(preset, np.random.default_rng(seed))
+    source = field if learners_planner.reads == "implicit" else None
+    planner = learners_planner.from_preset(preset, np.random.default_rng(seed))
     views = fibonacci_hemisphere(24, azimuth_offset=0.4)
     scores = _call(planner.utility, source, views, np.array([TOP_VIEW]), targets)
     if scores is None:
@@ -81,12 +82,12 @@ def check_capstone_planner(planner_class, seed: int = 0) -> bool:
         raise AssertionError(f"utility must return {len(views)} finite scores for {len(views)} views, got shape "
                              f"{scores.shape}" + ("" if np.all(np.isfinite(scores)) else " with NaN or infinite values"))
     np.random.seed(seed + 1)
-    first = _views_of(planner_class, preset, source, targets, seed)
+    first = _views_of(learners_planner, preset, source, targets, seed)
     np.random.seed(seed + 2)
-    again = _views_of(planner_class, preset, source, targets, seed)
+    again = _views_of(learners_planner, preset, source, targets, seed)
     if not np.allclose(first, again):
         raise AssertionError("the same seed gave other views: draw every random choice from self.rng (seeded by the "
                              "mission), not from np.random or random")
-    print(f"check_capstone_planner: {planner_class.__name__} scores views and plans {_STEPS} steps on the hemisphere, "
+    print(f"check_capstone_planner: {learners_planner.__name__} scores views and plans {_STEPS} steps on the hemisphere, "
           "never near a visited view, the same for the same seed")
     return True

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry import Intrinsics, view_to_pose
+from ..geometry import HEMISPHERE_RADIUS, Intrinsics, view_to_pose
 from ..measurement import Measurement, back_project
 from .common import as_array as _as_array, call as _call, compares_with
 
@@ -227,7 +227,7 @@ def check_view_angle(view_angle, n_trials: int = 200, seed: int = 0) -> bool:
 # --------------------------------------------------------------------------------------------------
 # The look-at pose (section 2): a view on the hemisphere -> the camera-to-world pose
 # --------------------------------------------------------------------------------------------------
-def _view_to_pose_reference(elevation, azimuth, radius):
+def _view_to_pose_reference(elevation, azimuth, radius=HEMISPHERE_RADIUS):
     t = radius * np.array([np.cos(azimuth) * np.cos(elevation), np.sin(azimuth) * np.cos(elevation), np.sin(elevation)])
     forward = -t / np.linalg.norm(t)
     up = np.array([0.0, 0.0, 1.0]) if np.pi / 2 - elevation >= 1e-6 else -np.array([np.cos(azimuth), np.sin(azimuth), 0.0])

@@ -62,7 +62,7 @@ def occupancy_volume(field, resolution: int, targets=None, z_min: float | None =
     if z_min is not None:
         low[2] = lattice.axis()[lattice.first_layer(z_min)]
     if skip is not None:  # only the vertices in the box of the skip grid's kept cells can be evaluated
-        box = skip.box()
+        box = skip.box
         if box is None:
             return np.zeros((resolution,) * 3, np.float32), lattice
         low, high = torch.maximum(low, box[0].cpu()), torch.minimum(high, box[1].cpu())

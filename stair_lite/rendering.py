@@ -8,6 +8,7 @@ composited as white colour, depth 0 and the background class, matching the measu
 from __future__ import annotations
 
 from collections.abc import Iterator
+from functools import cached_property
 
 import numpy as np
 import torch
@@ -129,10 +130,11 @@ class SkipGrid:
         """Whether each point (..., 3) lies in a kept cell (nearest lattice vertex)."""
         return self.keep[self.lattice.nearest_index(points)]
 
+    @cached_property
     def box(self) -> tuple[torch.Tensor, torch.Tensor] | None:
         """A world box (low, high corners) outside which ``lookup`` keeps no point: the kept vertices' bounding box,
         grown by one vertex spacing (a point belongs to its nearest vertex, half a spacing away at most; the other
-        half is a margin for rounding). None when no vertex is kept."""
+        half is a margin for rounding). None when no vertex is kept. Computed once (a grid's cells do not change)."""
         rows = self.keep.nonzero().squeeze(1)
         if len(rows) == 0:
             return None
@@ -351,7 +353,7 @@ def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, c
     live = rays_through(skip, origins, dirs, cfg)
     images = torch.ones(2, len(origins), 3, device=field.device)  # the full and the cut composite of every ray
     rows = live.nonzero().squeeze(1)
-    box = skip.box()
+    box = skip.box
     for chunk in torch.split(rows, cfg.chunk_rays) if len(rows) else ():
         samples = sample_field(field, origins[chunk], dirs[chunk], cfg, skip=skip, semantics=True, box=box)
         occ = samples["occ"] * is_target(samples["sem_logits"], targets)
@@ -372,7 +374,7 @@ def rays_through(skip: SkipGrid, origins: torch.Tensor, dirs: torch.Tensor, cfg:
     others composite to the background without evaluating the field. Only the rays that cross the box of the kept
     cells (``SkipGrid.box``) are sampled to find out."""
     live = torch.zeros(len(origins), dtype=torch.bool, device=origins.device)
-    box = skip.box()
+    box = skip.box
     if box is None:
         return live
     _, _, crosses = ray_box_intersection(origins, dirs, box[1], cfg.near, low=box[0])

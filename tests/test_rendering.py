@@ -176,7 +176,7 @@ def test_box_windows_hold_every_kept_sample_with_the_same_parameters():
         t_far = torch.where(hit & (t_far > t_near), t_far, t_near + 1e-3)
         every = sample_along_rays(t_near, t_far, cfg.n_samples)
         kept = hit[:, None] & skip.lookup(o[:, None, :] + every[..., None] * d[:, None, :])
-        window, valid = samples_in_box(t_near, t_far, cfg.n_samples, o, d, skip.box(), cfg.near)
+        window, valid = samples_in_box(t_near, t_far, cfg.n_samples, o, d, skip.box, cfg.near)
         position = torch.searchsorted(every.contiguous(), window.contiguous())  # where each window sample sits
         assert torch.equal(torch.gather(every, 1, position.clamp(max=cfg.n_samples - 1))[valid], window[valid])
         in_windows = torch.zeros_like(kept)

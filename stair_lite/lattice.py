@@ -47,10 +47,9 @@ class Lattice:
     def points(self, device=None, z_min: float | None = None) -> torch.Tensor:
         """World positions (N, 3) of the vertices in flat order; with ``z_min`` only the z-layers from the
         last one below ``z_min`` upwards (a contiguous tail of the flat order, ``first_layer(z_min)`` on)."""
-        axis = self.axis(device)
-        zs = axis[self.first_layer(z_min):] if z_min is not None else axis
-        z, y, x = torch.meshgrid(zs, axis, axis, indexing="ij")
-        return torch.stack([x, y, z], dim=-1).reshape(-1, 3)
+        every = slice(0, self.resolution)
+        return self.block_points((every, every, slice(self.first_layer(z_min) if z_min is not None else 0, self.resolution)),
+                                 device)
 
     def block(self, low: torch.Tensor, high: torch.Tensor) -> tuple[slice, slice, slice]:
         """The index ranges (x, y, z) of the vertices in the world box [low, high] (corners (3,)); empty ranges when

@@ -172,14 +172,14 @@ def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: fl
 
 def sample_field(field, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderConfig, n_samples: int | None = None,
                  generator: torch.Generator | None = None, depth: torch.Tensor | None = None,
-                 skip: SkipGrid | None = None, semantics: bool = False, box=None) -> dict[str, torch.Tensor]:
+                 skip: SkipGrid | None = None, semantics: bool = False, in_box: bool = False) -> dict[str, torch.Tensor]:
     """Samples along rays and the field's occupancy there: parameters t (R, S), points (R, S, 3), occupancy
     (R, S), zero where the field is not evaluated (outside the cube, or in a cell ``skip`` leaves out), the
     flat mask ``evaluate`` of evaluated samples and their ``located`` corners (``SemanticField.locate``).
     With ``semantics``, also the class logits (R, S, P) of the evaluated samples (zero elsewhere) and their
     colour features ``f_rgb``, from one lookup of the appearance grid. With a measured ``depth`` (training), a ray
-    that hit something is sampled only up to ``cfg.behind_surface`` behind it. With ``box`` (``SkipGrid.box`` of
-    ``skip``; unjittered samples only), only each ray's samples that can lie in the box are taken (``samples_in_box``):
+    that hit something is sampled only up to ``cfg.behind_surface`` behind it. With ``in_box`` (unjittered samples and
+    a ``skip`` only), only each ray's samples that can lie in ``skip.box`` are taken (``samples_in_box``):
     the others would be skipped anyway, so composites over them are those over all samples."""
     t_near, t_far, hit = ray_box_intersection(origins, dirs, field.lattice.bound, cfg.near)
     if depth is not None and cfg.behind_surface is not None:
@@ -187,10 +187,10 @@ def sample_field(field, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderCo
         # ray that hit something ends just behind its surface, so it teaches nothing about the volume beyond
         t_far = torch.where(depth > 0, torch.minimum(t_far, depth + cfg.behind_surface), t_far)
     t_far = torch.where(hit & (t_far > t_near), t_far, t_near + 1e-3)
-    if box is not None:
-        if generator is not None or depth is not None:
-            raise ValueError("sample_field: a box window needs unjittered samples without a measured depth")
-        t, in_window = samples_in_box(t_near, t_far, n_samples or cfg.n_samples, origins, dirs, box, cfg.near)
+    if in_box:
+        if generator is not None or depth is not None or skip is None:
+            raise ValueError("sample_field: in_box needs a skip grid and unjittered samples without a measured depth")
+        t, in_window = samples_in_box(t_near, t_far, n_samples or cfg.n_samples, origins, dirs, skip.box, cfg.near)
     else:
         t = sample_along_rays(
             t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
@@ -198,7 +198,7 @@ def sample_field(field, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderCo
         )
     r, s = t.shape
     points = origins[:, None, :] + t[..., None] * dirs[:, None, :]
-    evaluate = hit[:, None].expand(r, s) if box is None else hit[:, None] & in_window
+    evaluate = hit[:, None] & in_window if in_box else hit[:, None].expand(r, s)
     if skip is not None:
         evaluate = evaluate & skip.lookup(points)
     evaluate = evaluate.reshape(-1)
@@ -353,9 +353,8 @@ def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, c
     live = rays_through(skip, origins, dirs, cfg)
     images = torch.ones(2, len(origins), 3, device=field.device)  # the full and the cut composite of every ray
     rows = live.nonzero().squeeze(1)
-    box = skip.box
     for chunk in torch.split(rows, cfg.chunk_rays) if len(rows) else ():
-        samples = sample_field(field, origins[chunk], dirs[chunk], cfg, skip=skip, semantics=True, box=box)
+        samples = sample_field(field, origins[chunk], dirs[chunk], cfg, skip=skip, semantics=True, in_box=True)
         occ = samples["occ"] * is_target(samples["sem_logits"], targets)
         above = lattice.axis(occ.device)[lattice.nearest_layer(samples["points"][..., 2])] >= z_min
         weights = [compositing_weights(o_)[0] for o_ in (occ, occ * above)]

@@ -273,9 +273,9 @@ def _cmd_claims(args):
 
 
 def _cmd_label_noise_claims(args):
-    from .noise_study import markdown_report, study_rows
+    from .noise_study import STORED_STUDY, markdown_report, study_rows
 
-    print(markdown_report(study_rows(Path(args.results), log=_warn)))
+    print(markdown_report(study_rows(Path(args.results), log=_warn, study=args.study or STORED_STUDY)))
     return 0
 
 
@@ -455,14 +455,17 @@ def main(argv=None):
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_headroom)
     p = sub.add_parser("league", help="the league of utilities over a folder of headroom tables (Markdown)")
-    p.add_argument("--results", default="data/results/headroom_lite")
+    p.add_argument("--results", default="data/results/headroom_league_lite")
     p.set_defaults(func=_cmd_league)
     p = sub.add_parser("claims", help="the paper's three claims checked against stored results (Markdown)")
     p.add_argument("--results", default="data/results/comparison_lite")
     p.add_argument("--ablation", default=None, help="an epsilon-ablation sweep folder (claim iii)")
     p.set_defaults(func=_cmd_claims)
     p = sub.add_parser("label-noise-claims", help="does semantic uncertainty help under label noise? (Markdown)")
-    p.add_argument("--results", default="data/results", help="the folder of label_noise_<level>_lite and comparison_lite")
+    p.add_argument("--results", default="data/results", help="the folder of label_noise_<level>_<study> and "
+                   "comparison_<study>")
+    p.add_argument("--study", default=None, help="the folders' suffix (default: the study RESULTS.md quotes, "
+                   "noise_study.STORED_STUDY; lite: the re-run at the adopted lite)")
     p.set_defaults(func=_cmd_label_noise_claims)
     args = parser.parse_args(argv)
     try:

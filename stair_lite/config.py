@@ -132,10 +132,12 @@ class PlanConfig:
     candidate_samples: int = 200  # N_pt
     epsilon: float = 0.2  # the exploration weight of Eq. 15 (the one default; UtilityOptions takes it from here)
     # how the planning renders mark space no measured ray reached (utility.UtilityOptions; the field itself keeps it
-    # empty, so metrics and meshes never see it): its prior occupancy (0: unknown space carries no entropy, as the
-    # authors' code in effect), and the distance [m] from a target surface within which it renders as that target
-    unknown_occupancy: float = 0.0
-    unknown_target_radius: float = 0.0
+    # empty, so metrics and meshes never see it): its prior occupancy (0.5, the most uncertain: the paper's intent that
+    # uncertainty marks what is unexplored, Sec. III-C; 0 would give unknown space no entropy, as the authors' code in
+    # effect), and the distance [m] from a target surface within which it renders as that target. The headroom league
+    # chose these (README, "The league of utilities")
+    unknown_occupancy: float = 0.5
+    unknown_target_radius: float = 0.2
 
     def __post_init__(self):
         check_epsilon(self.epsilon)
@@ -145,7 +147,7 @@ class PlanConfig:
 class ExplicitConfig:
     """The explicit STE baseline's map (OctoMap's sensor model and clamping) and ROI planner."""
 
-    resolution: int = 128  # the paper compares both maps at one grid size (Sec. IV-C): each preset sets the field's
+    resolution: int = 128  # the field's grid: the paper compares both maps at one grid size (Sec. IV-C; Preset checks)
     bound: float = CUBE_BOUND
     prob_hit: float = 0.7
     prob_miss: float = 0.4
@@ -173,6 +175,10 @@ class Preset:
 
     def __post_init__(self):
         check_budget(self.budget)
+        if self.explicit.resolution != self.field.grid_resolution:
+            raise ValueError(f"preset {self.name!r}: the voxel map's grid ({self.explicit.resolution}^3) must equal the "
+                             f"field's ({self.field.grid_resolution}^3): the paper compares both maps at one grid size "
+                             "(Sec. IV-C)")
 
     def with_epsilon(self, epsilon: float) -> "Preset":
         """This preset with another exploration weight (Eq. 15)."""
@@ -192,13 +198,8 @@ LITE = Preset(
     train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=80, skip_refresh=20, lr_occupancy_head=0.05),
     eval=EvalConfig(n_test_views=20, image_scale=0.25, mesh_resolution=128, mesh_points=100_000),
     plan=PlanConfig(candidate_scale=0.1, candidate_samples=64),
+    explicit=ExplicitConfig(resolution=64),  # the field's grid
 )
-
-# lite's candidate successor (README, "The league of utilities"): the planning renders mark the space no measured ray
-# reached (prior occupancy 0.5, the most uncertain; within 20 cm of a target surface it renders as that target), and STE's
-# voxel map has the field's grid (the paper's rule, Sec. IV-C). Its studies run into *_lite_next folders until lite adopts it
-LITE_NEXT = replace(LITE, name="lite_next", plan=replace(LITE.plan, unknown_occupancy=0.5, unknown_target_radius=0.2),
-                    explicit=replace(LITE.explicit, resolution=LITE.field.grid_resolution))
 
 # A seconds-long preset for smoke tests of whole pipelines (missions, sweeps); its metrics mean little.
 SMOKE = Preset(
@@ -211,7 +212,7 @@ SMOKE = Preset(
     explicit=ExplicitConfig(resolution=24, n_candidates=12, candidate_scale=0.03),  # the field's grid
 )
 
-PRESETS = {"paper": PAPER, "lite": LITE, "lite_next": LITE_NEXT, "smoke": SMOKE}
+PRESETS = {"paper": PAPER, "lite": LITE, "smoke": SMOKE}
 
 
 def get_preset(name: str = "lite", **overrides) -> Preset:

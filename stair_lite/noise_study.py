@@ -3,7 +3,11 @@
 The study (``scripts/label_noise_sweep.sh``) runs STAIR, STAIR with the semantic-uncertainty term
 (``stair_semantic``), STAIR with the soft target mask (``stair_soft``), Exploration and Max View Distance on
 the four paper scenes at label noise none, low and high (``segmenter.LABEL_NOISE``), one folder per level.
-At level none the paper's variants are the missions of ``comparison_lite`` (the same missions: exact labels).
+At level none the paper's variants are the missions of the comparison of the same map (the same missions: exact
+labels). A study is named by its folders' suffix: ``label_noise_<level>_<study>`` and ``comparison_<study>``.
+``STORED_STUDY`` is ``lite_former``: the study ran with lite's map before the headroom league (unknown space unmarked in
+planning, the voxel map at 128^3); its re-run at the adopted lite (``scripts/label_noise_sweep.sh``) fills the
+``*_lite`` folders.
 
 Each utility variant is compared with STAIR as ``claims`` compares planners: per-seed means over the steps,
 a paired t-test at ``claims.ALPHA``; per scene, and pooled over the scenes (pairs of the same scene and seed).
@@ -27,22 +31,24 @@ VARIANTS = ("stair", "stair_semantic", "stair_soft", "exploration", "max_distanc
 AGAINST_STAIR = ("stair_semantic", "stair_soft")  # the utilities beyond the paper, each against the paper's
 BASELINES = ("exploration", "max_distance")  # semantics-blind: STAIR is compared against each
 METRICS = ("psnr", "f1")
-EXACT_FOLDER = "comparison_lite"  # level none's stair, exploration and max_distance
+STORED_STUDY = "lite_former"  # the study whose verdicts RESULTS.md and notebook 07 quote
 WORDS = {"holds": "helps", "reversed": "hurts", "not significant": "no significant difference"}
 STAIR_WORDS = {"holds": "STAIR better", "reversed": "STAIR worse", "not significant": "no significant difference"}
 
 
-def folder(level: str, root: Path = RESULTS_DIR) -> Path:
-    return Path(root) / f"label_noise_{level}_lite"
+def folder(level: str, root: Path = RESULTS_DIR, study: str = STORED_STUDY) -> Path:
+    return Path(root) / f"label_noise_{level}_{study}"
 
 
-def study_rows(root: Path = RESULTS_DIR, log=print) -> dict[str, list[dict]]:
-    """Level -> the finished missions of the study's variants at that level (an absent folder: none yet)."""
+def study_rows(root: Path = RESULTS_DIR, log=print, study: str = STORED_STUDY) -> dict[str, list[dict]]:
+    """Level -> the finished missions of the study's variants at that level (an absent folder: none yet); level none
+    adds the comparison's missions (``comparison_<study>``: stair, exploration and max_distance with exact labels)."""
     out = {}
+    exact = Path(root) / f"comparison_{study}"
     for level in LEVELS:
-        rows = collect(folder(level, root), log) if folder(level, root).exists() else []
-        if level == "none" and (Path(root) / EXACT_FOLDER).exists():
-            rows += [r for r in collect(Path(root) / EXACT_FOLDER, log) if r["variant"] in VARIANTS]
+        rows = collect(folder(level, root, study), log) if folder(level, root, study).exists() else []
+        if level == "none" and exact.exists():
+            rows += [r for r in collect(exact, log) if r["variant"] in VARIANTS]
         out[level] = [r for r in rows if r["variant"] in VARIANTS]
     return out
 

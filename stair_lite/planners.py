@@ -119,7 +119,7 @@ class UtilityPlanner(Planner):
     def __init__(self, cfg: PlanConfig, rng: np.random.Generator, options: UtilityOptions | None = None,
                  exploration_only: bool = False, exact: bool = False, name: str | None = None):
         super().__init__(cfg, rng)
-        self.options = options or UtilityOptions(epsilon=cfg.epsilon)
+        self.options = options or UtilityOptions.from_plan(cfg)
         self.exploration_only = exploration_only
         self.exact = exact
         self.name = name or ("exploration" if exploration_only else "stair")
@@ -129,10 +129,8 @@ class UtilityPlanner(Planner):
     def from_preset(cls, preset, rng, exploration_only: bool = False, **utility_options) -> "UtilityPlanner":
         """The preset's candidates, epsilon and marking of the unknown; ``utility_options``: ``UtilityOptions`` beside
         (or instead of) those."""
-        plan = preset.plan
-        options = UtilityOptions(**{"epsilon": plan.epsilon, "unknown_occupancy": plan.unknown_occupancy,
-                                    "unknown_target_radius": plan.unknown_target_radius, **utility_options})
-        return cls(preset.plan, rng, options, exploration_only=exploration_only)
+        return cls(preset.plan, rng, UtilityOptions.from_plan(preset.plan, **utility_options),
+                   exploration_only=exploration_only)
 
     def _source(self, field, targets):
         """What the candidates are rendered from: the field itself (``exact``) or its snapshot."""
@@ -399,9 +397,11 @@ register_planner("stair_semantic", UtilityPlanner, semantic_weight=SEMANTIC_WEIG
 # uncertainty 1 - exp(-H_ray) (bits), only on rays of accumulated opacity above 0.01
 register_planner("stair_reference", UtilityPlanner, delete_background=True, min_occupancy=0.01, saturating_rays=True,
                  min_ray_opacity=0.01)
-# beyond the paper (the headroom league, README): STAIR on a map whose planning renders mark the unknown (lite_next's
-# rule at any preset); a visibility-count and a Fisher-information utility, which look through unknown space at the
-# surfaces behind it (the league measured them best so)
+# the headroom league (README): STAIR whose planning renders leave the unknown unmarked (the rule before the league:
+# unknown space carries no entropy) and STAIR with the shipped presets' marking whatever a preset says (at paper, lite
+# and smoke it is stair itself); a visibility-count and a Fisher-information utility, which look through unknown space
+# at the surfaces behind it (the league measured them best so)
+register_planner("stair_unmarked", UtilityPlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 register_planner("stair_unknown", UtilityPlanner, unknown_occupancy=0.5, unknown_target_radius=0.2)
 register_planner("coverage", CoveragePlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 register_planner("fisher", FisherPlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)

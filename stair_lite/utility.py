@@ -42,7 +42,8 @@ def point_entropy(occ: torch.Tensor) -> torch.Tensor:
 
 @dataclass(frozen=True)
 class UtilityOptions:
-    """The paper's utility by default; the reference code's variants as options (see notebook 04).
+    """The paper's utility, on a map whose unknown is marked as the presets mark it, by default; the reference code's
+    variants as options (see notebook 04).
 
     ``saturating_rays``: per-ray uncertainty 1 - exp(-H_ray) (bits) instead of H_ray.
     ``delete_background``: samples whose class argmax is background count as empty.
@@ -50,7 +51,8 @@ class UtilityOptions:
     ``soft_mask``: weigh each ray by its rendered target probability p_T instead of the argmax test.
     ``semantic_weight``: lambda, the weight of the semantic-uncertainty term U_sem (0: the paper's utility).
     ``unknown_occupancy``: in planning renders, the prior occupancy of lattice vertices no measured ray reached (the
-    field itself keeps them empty, so metrics and meshes never see it); 0: unknown space carries no entropy.
+    field itself keeps them empty, so metrics and meshes never see it; it takes effect in ``FieldSnapshot.for_planning``);
+    0: unknown space carries no entropy.
     ``unknown_target_radius``: unknown vertices within this distance [m] of a target surface render with that
     target's class, so that the unseen side of a target counts as exploitation (0: off).
     ``min_ray_opacity``: rays whose accumulated opacity is below this carry no uncertainty (the reference code: 0.01).
@@ -64,10 +66,16 @@ class UtilityOptions:
     mask_dilation: int = 0
     soft_mask: bool = False
     semantic_weight: float = 0.0
-    unknown_occupancy: float = 0.0
-    unknown_target_radius: float = 0.0
+    unknown_occupancy: float = PlanConfig.unknown_occupancy
+    unknown_target_radius: float = PlanConfig.unknown_target_radius
     min_ray_opacity: float = 0.0
     min_occupancy: float = 0.0
+
+    @classmethod
+    def from_plan(cls, plan: PlanConfig, **overrides) -> "UtilityOptions":
+        """A preset's epsilon and marking of the unknown, with ``overrides`` beside (or instead of) them."""
+        return cls(**{"epsilon": plan.epsilon, "unknown_occupancy": plan.unknown_occupancy,
+                      "unknown_target_radius": plan.unknown_target_radius, **overrides})
 
     def __post_init__(self):
         check_epsilon(self.epsilon)

@@ -94,6 +94,20 @@ def test_claim_two_splits_mapping_and_planning():
     assert {c.verdict for c in two["mapping"]} == {"not significant"}
 
 
+def test_claim_two_at_the_last_step_reads_that_step_only():
+    """A map that starts ahead and stops improving wins the mean over the steps and loses the last step: ``step``
+    reads each seed's value at that step alone."""
+    rows = fake_rows({"stair": 20.0, "ste": 20.0, "stair_explicit": 20.0, "ste_implicit": 20.0, "exploration": 18.0,
+                      "fixed": 18.0, "max_distance": 18.0, "uniform": 18.0}, noise=0.0)
+    for r in rows:  # stair: +2 at steps 1-2, -1 at step 3 (mean +1); ste as made
+        if r["variant"] == "stair":
+            r["psnr"] += (2.0 if r["step"] < 3 else -1.0) + 0.01 * r["seed"]
+    mean, last = claim_two(rows)["overall"], claim_two(rows, step=3)["overall"]
+    assert [c.verdict for c in mean if c.metric == "psnr"] == ["holds"]
+    assert [c.verdict for c in last if c.metric == "psnr"] == ["reversed"]
+    assert "at the last step (3)" in markdown_report(rows)
+
+
 def test_claim_three_and_the_report():
     rows = fake_rows({"stair_eps0": 10.0, "stair_eps0.2": 14.0, "stair_eps0.8": 10.05}, scene="ablation_two_chairs")
     three = claim_three(rows)

@@ -4,7 +4,7 @@ import torch
 import trimesh
 
 import stair_lite  # noqa: F401
-from stair_lite.config import FieldConfig, get_preset
+from stair_lite.config import ExplicitConfig, FieldConfig, get_preset
 from scipy.spatial import cKDTree
 
 from stair_lite.evaluation import Evaluator, extract_mesh, f1_column, mesh_scores, mesh_scores_from_points, psnr, sample_surface
@@ -73,6 +73,7 @@ def test_skipping_empty_space_matches_the_exact_render():
     from stair_lite.rendering import build_skip_grid, render_target_views
 
     preset = replace(get_preset("lite"), field=FieldConfig(grid_resolution=32, rgb_hidden=(32, 32)),
+                     explicit=ExplicitConfig(resolution=32),
                      train=TrainConfig(rays_new=512, rays_replay=512, iterations_per_view=40),
                      eval=EvalConfig(n_test_views=4, image_scale=0.2, mesh_resolution=64, mesh_points=20000,
                                      render_samples=64))
@@ -135,6 +136,7 @@ def small_eval_preset():
     from stair_lite.config import EvalConfig
 
     return replace(get_preset("lite"), field=FieldConfig(grid_resolution=32, rgb_hidden=(32, 32)),
+                   explicit=ExplicitConfig(resolution=32),
                    eval=EvalConfig(n_test_views=6, image_scale=0.2, mesh_resolution=64, mesh_points=20000))
 
 

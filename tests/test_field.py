@@ -92,6 +92,20 @@ def test_unknown_preset_is_named():
         get_preset("huge")
 
 
+@pytest.mark.parametrize("name", ["paper", "lite", "smoke"])
+def test_every_preset_gives_both_maps_one_grid_and_refuses_two(name):
+    """The paper compares the field and the voxel map at one grid size (Sec. IV-C): every preset does, and a preset
+    whose voxel map has another grid is refused with both sizes named."""
+    from dataclasses import replace
+
+    from stair_lite.config import ExplicitConfig
+
+    preset = get_preset(name)
+    assert preset.explicit.resolution == preset.field.grid_resolution
+    with pytest.raises(ValueError, match=rf"voxel map's grid \(12\^3\) must equal the field's \({preset.field.grid_resolution}"):
+        replace(preset, explicit=ExplicitConfig(resolution=12))
+
+
 def test_occupancy_head_reads_no_raw_position():
     """The occupancy head reads the grid features and the sin/cos terms of gamma, not x itself (README, "No
     phantom"); the colour head reads all of gamma."""

@@ -22,10 +22,12 @@ from stair_lite.headroom import Headroom, MapAfter, rank_correlation
 from stair_lite.planners import CoveragePlanner, FisherPlanner, UtilityPlanner
 from stair_lite.utility import UtilityOptions
 
-UNKNOWN = {"unknown_occupancy": 0.5, "unknown_target_radius": 0.2}  # lite_next's marking of the unknown
-VARIANTS = {  # name: (planner class, UtilityOptions beside epsilon 0.2, exploration only, incidence weighting)
-    "stair": (UtilityPlanner, {}, False, False),
-    "exploration": (UtilityPlanner, {}, True, False),
+UNKNOWN = {"unknown_occupancy": 0.5, "unknown_target_radius": 0.2}  # lite's marking of the unknown (PlanConfig)
+UNMARKED = {"unknown_occupancy": 0.0, "unknown_target_radius": 0.0}  # the rule before the league
+VARIANTS = {  # name: (planner class, UtilityOptions beside epsilon 0.2 and the unknown unmarked, exploration only,
+    #               incidence weighting)
+    "stair unmarked": (UtilityPlanner, {}, False, False),
+    "exploration unmarked": (UtilityPlanner, {}, True, False),
     "reference rule": (UtilityPlanner, {"delete_background": True, "saturating_rays": True, "min_ray_opacity": 0.01,
                                         "min_occupancy": 0.01}, False, False),
     "unknown 0.3, 20 cm": (UtilityPlanner, {"unknown_occupancy": 0.3, "unknown_target_radius": 0.2}, False, False),
@@ -41,7 +43,7 @@ VARIANTS = {  # name: (planner class, UtilityOptions beside epsilon 0.2, explora
     "coverage, incidence": (CoveragePlanner, {}, False, True),
     "fisher, incidence": (FisherPlanner, {}, False, True),
 }
-RANK_SUMS = (("unknown 0.5, 20 cm", "coverage"), ("stair", "coverage"), ("unknown, U_er only", "coverage"))
+RANK_SUMS = (("unknown 0.5, 20 cm", "coverage"), ("stair unmarked", "coverage"), ("unknown, U_er only", "coverage"))
 METRICS = ("f1", "psnr_clean", "f1_5cm", "chamfer")
 
 
@@ -53,7 +55,7 @@ def scores_on_table(h: Headroom) -> dict[str, np.ndarray]:
     scores = {}
     for name, (cls, options, exploration_only, incidence) in VARIANTS.items():
         planner = cls(state.mission.preset.plan, np.random.default_rng(0),
-                      UtilityOptions(**{"epsilon": 0.2, **options}), exploration_only=exploration_only)
+                      UtilityOptions(**{"epsilon": 0.2, **UNMARKED, **options}), exploration_only=exploration_only)
         planner.incidence = incidence
         scores[name] = planner.utility(state.field, views, state.visited, state.targets)
     for a, b in RANK_SUMS:

@@ -155,6 +155,8 @@ MISTAKES = {
     "05_planning_loop.ipynb": ("05_first_step_above", 'return r["step"]', "return records.index(r)"),  # an index
     "06_baseline_comparison.ipynb": ("06_paired_p_value", "return float(2 * stats.t.sf(", "return float(1 * stats.t.sf("),
     "07_when_labels_lie.ipynb": ("07_class_entropy", "np.log(np.where(", "np.log2(np.where("),  # bits, not nats
+    "08_what_a_view_teaches.ipynb": ("08_noise_ceiling", "oracle = np.delete(gains, s, axis=0).mean(axis=0)",
+                                     "oracle = gains.mean(axis=0)"),                    # the oracle sees its own stream
 }
 UNANSWERED = {"02_voxel_occupancy_field.ipynb": "02_composite", "03_semantic_rendering.ipynb": "03_replay_probabilities",
               "04_entropy_utility.ipynb": "04_ray_entropy"}
@@ -167,7 +169,7 @@ def answered(source: str) -> str:
 
 @pytest.mark.release
 def test_the_release_with_one_wrong_answer_per_notebook_runs_to_the_end_and_loses_those_points(tmp_path):
-    """Notebooks 02-07 as a learner submits them: the student release with its answers filled in, one of them
+    """Notebooks 02-08 as a learner submits them: the student release with its answers filled in, one of them
     wrong per notebook and (where there are three) one left unanswered. Grading runs each top to bottom: only
     the checks of those two answers fail, every later cell runs on the reference, and the points drop by theirs."""
     notebooks = [p for p in NOTEBOOKS if p.name in MISTAKES]

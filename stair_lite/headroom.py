@@ -1,6 +1,6 @@
 """The headroom instrument: does a planner's utility predict what a view will teach?
 
-Introduced in notebook 06. From a seeded STAIR mission's state after K views, N candidate views spread
+Introduced in notebook 08. From a seeded STAIR mission's state after K views, N candidate views spread
 over the hemisphere (a Fibonacci set) are each added to a copy of the map, which is trained the same way
 (the same training state and random stream, or another stream for the noise ceiling) and evaluated. A view's
 realised gain is a metric after it minus the metric before it (for the chamfer distance, before minus after: a gain is

@@ -394,9 +394,9 @@ register_planner("ste", STEPlanner, paper=True)
 register_planner("stair_soft", UtilityPlanner, soft_mask=True)
 register_planner("stair_semantic", UtilityPlanner, semantic_weight=SEMANTIC_WEIGHT)
 # the authors' code's rule (README, "The league"): samples below o = 0.01 or of the background class deleted, the ray's
-# uncertainty 1 - exp(-H_ray) (bits), only on rays of accumulated opacity above 0.01
+# uncertainty 1 - exp(-H_ray) (bits), only on rays of accumulated opacity above 0.01, and no marking of the unknown
 register_planner("stair_reference", UtilityPlanner, delete_background=True, min_occupancy=0.01, saturating_rays=True,
-                 min_ray_opacity=0.01)
+                 min_ray_opacity=0.01, unknown_occupancy=0.0, unknown_target_radius=0.0)
 # the headroom league (README): STAIR whose planning renders leave the unknown unmarked (the rule before the league:
 # unknown space carries no entropy) and STAIR with the shipped presets' marking whatever a preset says (at paper, lite
 # and smoke it is stair itself); a visibility-count and a Fisher-information utility, which look through unknown space

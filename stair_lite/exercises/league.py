@@ -4,7 +4,7 @@
 x views, a view's gains related across streams as in the stored tables) and a few tables built to expose one mistake
 each, compares it with the oracle computed here from its definition, and raises ``AssertionError`` with a hint when
 they differ: the oracle that sees its own stream, Pearson's correlation instead of Spearman's, ties counted as beaten,
-and the median over the other streams instead of their mean each get named. On success it prints one line and returns
+the median over the other streams instead of their mean and a share over the other views only each get named. On success it prints one line and returns
 ``True``.
 """
 from __future__ import annotations
@@ -29,9 +29,11 @@ def _oracle(gains: np.ndarray, leave_out: bool = True, average=np.mean, correlat
 
 
 def _variants(gains: np.ndarray) -> dict[str, tuple[float, float]]:
-    return {"right": _oracle(gains), "own_stream": _oracle(gains, leave_out=False),
+    rho, pick = _oracle(gains)
+    views = gains.shape[1]
+    return {"right": (rho, pick), "own_stream": _oracle(gains, leave_out=False),
             "pearson": _oracle(gains, correlation="pearson"), "ties": _oracle(gains, beaten=np.less_equal),
-            "median": _oracle(gains, average=np.median)}
+            "median": _oracle(gains, average=np.median), "others_only": (rho, pick * views / (views - 1))}
 
 
 _HINTS = {
@@ -42,6 +44,8 @@ _HINTS = {
     "ties": "a view the oracle's pick beats has a gain strictly below the pick's (<): the pick does not beat itself",
     "median": "the oracle knows each view's MEAN gain over the other streams (with more than two other streams the "
               "median differs)",
+    "others_only": "the share is over ALL the stream's views (the pick included, which does not beat itself): divide "
+                   "by the number of views, not by the number of the others",
 }
 
 
@@ -60,9 +64,9 @@ def check_noise_ceiling(fn, n_random: int = 30, seed: int = 0) -> bool:
     the streams s of Spearman's correlation between the other streams' mean gain per view and stream s's gains, and of
     the share of stream s's views whose gain lies below that of the view the other streams' mean ranks first."""
     rng = np.random.default_rng(seed)
-    cases = [np.array([[0.1, 0.3, 0.2, 0.4], [0.2, 0.1, 0.4, 0.3], [0.4, 0.3, 0.1, 0.2]]),  # noise only
-             np.array([[0.1, 0.2, 0.9, 0.4, 0.5], [0.2, 0.1, 0.3, 0.8, 0.6], [0.1, 0.3, 0.2, 0.4, 0.5],
-                       [0.2, 0.2, 0.1, 0.9, 0.3]])]                                    # mean and median differ
+    # multiples of 1/8 (exact in binary): a mean computed in another order gives the same ranks, no near-ties
+    cases = [np.array([[1, 3, 2, 5], [2, 1, 6, 3], [5, 3, 1, 2]]) / 8,                       # noise only
+             np.array([[1, 2, 9, 4, 5], [2, 1, 3, 8, 6], [1, 3, 2, 4, 5], [2, 2, 1, 9, 3]]) / 8]  # mean and median differ
     cases += [_table(rng, int(rng.integers(2, 6)), int(rng.integers(5, 17)), rng.uniform(0.005, 0.05))
               for _ in range(n_random)]
     for gains in cases:

@@ -33,16 +33,16 @@ def plot_league(rows: list[dict], metrics: tuple[str, ...], measures=(("pick_per
 
 
 def plot_view_to_mission(points: list[dict], metric: str, ax=None):
-    """Per planner (``points``: planner, league pick percentile, mission score, view spread): how well its utility
-    picks one view against how its missions score, the view spread as the marker size."""
+    """Per planner (``points``: planner, rho (its utility's league Spearman with one view's gain), mission score, view
+    spread): how well its utility ranks one view against how its missions score, the view spread as the marker size."""
     ax = ax or plt.gca()
     spreads = np.array([p["spread_deg"] for p in points])
     for p in points:
-        ax.scatter(p["pick"], p["mission"], s=4 * p["spread_deg"], color=planner_colour(p["planner"]), alpha=0.8,
+        ax.scatter(p["rho"], p["mission"], s=4 * p["spread_deg"], color=planner_colour(p["planner"]), alpha=0.8,
                    edgecolor="k", linewidth=0.5)
-        ax.annotate(f"{p['planner']} ({p['spread_deg']:.0f} deg)", (p["pick"], p["mission"]), fontsize=7,
+        ax.annotate(f"{p['planner']} ({p['spread_deg']:.0f} deg)", (p["rho"], p["mission"]), fontsize=7,
                     xytext=(5, 4), textcoords="offset points")
-    ax.set_xlabel(f"one view: share of spread views its pick beats ({metric} gain, league)")
+    ax.set_xlabel(f"one view: Spearman of its utility with the realised {metric} gain (league)")
     ax.set_ylabel(f"ten views: mission {metric}, mean over steps and scenes")
     ax.set_title(f"from one view to a mission (marker size: view spread, {spreads.min():.0f}-{spreads.max():.0f} deg)",
                  fontsize=9)

@@ -81,6 +81,13 @@ class Comparison:
     def difference(self) -> float:
         return float(self.differences.mean())
 
+    def interval(self, level: float = 0.95) -> tuple[float, float]:
+        """The ``level`` confidence interval of the mean paired difference (Student's t over the seeds): the paired
+        test finds a difference exactly when the 95 % interval leaves out 0."""
+        d = self.differences
+        half = stats.t.ppf(0.5 + level / 2, len(d) - 1) * d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else np.inf
+        return float(d.mean() - half), float(d.mean() + half)
+
     @property
     def p_value(self) -> float:
         """Paired two-sided t-test; NaN with fewer than two seeds or identical differences."""

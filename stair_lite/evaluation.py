@@ -189,6 +189,11 @@ class Evaluator:
         self.gt_points = sample_surface(self.gt_mesh, cfg.mesh_points, seed)
         self.gt_tree = point_tree(self.gt_points)
 
+    def blank_psnr(self) -> float:
+        """The paper's target-only PSNR of an all-white render over the test views that show a target (on the others a
+        blank render is perfect): the floor every map should clear (notebook 08)."""
+        return float(np.mean([psnr(np.ones_like(g), g) for g in self.gt_images if (g < 1).any()]))
+
     def evaluate(self, reconstruction) -> dict:
         """Score a map (any ``maps.ReconstructionMap``): both target-only PSNRs and the target mesh."""
         cfg = self.preset.eval

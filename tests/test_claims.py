@@ -146,3 +146,17 @@ def test_hidden_target_fraction_is_zero_without_other_objects(tmp_path):
     only_targets = replace(spec, name="targets_only", objects=tuple(o for o in spec.objects if o.cls in spec.targets))
     path = save_scene_spec(only_targets, tmp_path / "targets_only.json")
     assert hidden_target_fraction(str(path), np.array([TOP_VIEW, (0.3, 1.0), (0.05, 4.0)])) == 0.0
+
+
+def test_the_95_percent_interval_leaves_out_zero_exactly_when_the_paired_test_finds_a_difference():
+    """Student's interval and the paired t-test are two faces of one computation: over many random pairs, 0 lies
+    outside the interval exactly when p < 0.05 (ties at the boundary aside)."""
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        n = int(rng.integers(3, 10))
+        base = rng.normal(0, 2, n)
+        c = Comparison("s", "psnr", "x", "y", base + rng.normal(rng.normal(0, 0.3), 0.3, n), base)
+        low, high = c.interval()
+        if abs(c.p_value - 0.05) > 1e-9:
+            assert (low > 0 or high < 0) == (c.p_value < 0.05)
+        assert low <= c.difference <= high

@@ -47,3 +47,30 @@ def test_no_stored_mission_has_a_phantom_below_the_ground():
     assert len(steps) > 5000  # every stored study is read
     worst = max(steps, key=lambda s: s[2])
     assert worst[2] <= 0.01, f"{worst[0]} step {worst[1]}: phantom {worst[2]:.2%}"
+
+
+def test_every_stored_cross_validation_mission_replays_its_sources_views():
+    """``stair_explicit`` fuses STAIR's views into the voxel map and ``ste_implicit`` trains the field on STE's: each
+    stored cross-validation mission followed exactly the views of the mission of the same scene and seed it replays."""
+    from stair_lite.experiments import CROSS_VALIDATION, Cell
+
+    folder, checked = RESULTS_DIR / "comparison_lite", 0
+    for replay, source in CROSS_VALIDATION.items():
+        for path in sorted(folder.glob(f"*/{replay}/seed*/metrics.json")):
+            cell = Cell(path.parts[-4], replay, int(path.parent.name.removeprefix("seed")))
+            mine = [r["view_rad"] for r in cell.steps(folder)]
+            assert mine == [r["view_rad"] for r in Cell(cell.scene, source, cell.seed).steps(folder)], cell
+            checked += 1
+    assert checked == 64  # 4 scenes x 2 cross-validation variants x 8 seeds
+
+
+def test_each_stored_results_table_holds_every_mission_of_its_folder():
+    """``report``'s results.csv beside the missions holds every stored step record with the same numbers."""
+    from stair_lite.experiments import read_table
+
+    for name in ("comparison_lite", "ablation_hidden_chair_lite"):
+        rows, table = collect(RESULTS_DIR / name, log=lambda message: None), read_table(RESULTS_DIR / name / "results.csv")
+        key = lambda r: (r["scene"], r["variant"], int(r["seed"]), int(r["step"]))  # noqa: E731
+        assert sorted(map(key, table)) == sorted(map(key, rows)), name
+        stored = {key(r): (r["psnr"], r["f1"]) for r in rows}
+        assert all(abs(r["psnr"] - stored[key(r)][0]) < 1e-9 and abs(r["f1"] - stored[key(r)][1]) < 1e-9 for r in table)

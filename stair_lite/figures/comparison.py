@@ -1,0 +1,34 @@
+"""Figures of notebook 06 (the comparison with the baselines)."""
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from ..metrics import METRICS
+
+VERDICT_COLOURS = {"holds": "tab:green", "reversed": "tab:red", "not significant": "tab:grey"}
+
+
+def plot_claim_differences(claims: dict[str, list], metrics: tuple[str, ...]):
+    """One row per claim (``claims``: title -> its ``claims.Comparison`` list), one panel per metric: per scene, the mean
+    paired difference (claimed side minus the other, over the seeds) with its 95 % confidence interval, coloured by the
+    verdict. For a metric where lower is better the axis is flipped, so up is always better for the claimed side."""
+    fig, axes = plt.subplots(len(claims), len(metrics), figsize=(3.6 * len(metrics), 2.6 * len(claims)), squeeze=False)
+    for row, (title, comparisons) in zip(axes, claims.items()):
+        for ax, metric in zip(row, metrics):
+            mine = [c for c in comparisons if c.metric == metric]
+            for x, c in enumerate(mine):
+                low, high = c.interval()
+                ax.errorbar(x, c.difference, yerr=[[c.difference - low], [high - c.difference]], fmt="o", capsize=3,
+                            color=VERDICT_COLOURS[c.verdict])
+            ax.axhline(0, color="k", lw=0.8)
+            ax.set_xticks(range(len(mine)), [f"{c.scene}\n{c.other}" for c in mine], fontsize=7)
+            if METRICS[metric].lower_is_better:
+                ax.invert_yaxis()
+            ax.set_title(f"{title}: {METRICS[metric].label}", fontsize=8)
+            ax.grid(axis="y", alpha=0.3)
+        row[0].set_ylabel("claimed minus other", fontsize=8)
+    handles = [plt.Line2D([], [], marker="o", ls="", color=c, label=v) for v, c in VERDICT_COLOURS.items()]
+    fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8)
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    return fig

@@ -227,6 +227,11 @@ def add_utilities(result: Headroom, utilities: tuple[str, ...], device: str = "c
     if not new:
         return result
     state = MapAfter(result.scene, result.after, result.seed, result.preset, device)
+    moved = {m: (result.before[m], state.before[m]) for m in result.metrics if abs(state.before[m] - result.before[m]) > 1e-9}
+    if moved:
+        raise ValueError(f"{result.scene} after {result.after}: the seeded mission no longer reaches the table's state "
+                         f"(stored and now: {moved}): the code or the thread count changed; measure the table anew "
+                         "(--again)")
     names = (*result.utilities, *new)
     planners = {name: state.planner(name) for name in names}
     rows = [dict(r) for r in result.rows]

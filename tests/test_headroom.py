@@ -86,3 +86,9 @@ def test_adding_a_utility_to_a_stored_table_equals_measuring_it_with_the_others(
     grown = add_utilities(one, ("exploration",), log=lambda line: None)
     assert grown.utilities == both.utilities and grown.correlations == both.correlations
     assert [sorted(r.items()) for r in grown.rows] == [sorted(r.items()) for r in both.rows]
+    # a table whose mission the current code no longer reaches (another code or thread count) is refused, not grown
+    from dataclasses import replace
+
+    elsewhere = replace(one, before={**one.before, "f1": one.before["f1"] + 0.01})
+    with pytest.raises(ValueError, match="no longer reaches the table's state"):
+        add_utilities(elsewhere, ("exploration",), log=lambda line: None)

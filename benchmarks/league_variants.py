@@ -18,11 +18,13 @@ import numpy as np
 from scipy.stats import rankdata
 
 import stair_lite  # noqa: F401
+from stair_lite.config import PlanConfig
 from stair_lite.headroom import Headroom, MapAfter, rank_correlation
 from stair_lite.planners import CoveragePlanner, FisherPlanner, UtilityPlanner
 from stair_lite.utility import UtilityOptions
 
-UNKNOWN = {"unknown_occupancy": 0.5, "unknown_target_radius": 0.2}  # lite's marking of the unknown (PlanConfig)
+UNKNOWN = {"unknown_occupancy": PlanConfig.unknown_occupancy,  # lite's marking of the unknown
+           "unknown_target_radius": PlanConfig.unknown_target_radius}
 UNMARKED = {"unknown_occupancy": 0.0, "unknown_target_radius": 0.0}  # the rule before the league
 VARIANTS = {  # name: (planner class, UtilityOptions beside epsilon 0.2 and the unknown unmarked, exploration only,
     #               incidence weighting)

@@ -402,7 +402,8 @@ register_planner("stair_reference", UtilityPlanner, delete_background=True, min_
 # and smoke it is stair itself); a visibility-count and a Fisher-information utility, which look through unknown space
 # at the surfaces behind it (the league measured them best so)
 register_planner("stair_unmarked", UtilityPlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
-register_planner("stair_unknown", UtilityPlanner, unknown_occupancy=0.5, unknown_target_radius=0.2)
+register_planner("stair_unknown", UtilityPlanner, unknown_occupancy=PlanConfig.unknown_occupancy,
+                 unknown_target_radius=PlanConfig.unknown_target_radius)
 register_planner("coverage", CoveragePlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 register_planner("fisher", FisherPlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 

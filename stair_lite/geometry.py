@@ -124,6 +124,14 @@ def angular_distance(views_a: np.ndarray, views_b: np.ndarray) -> np.ndarray:
     return np.arccos(np.clip(cos, -1.0, 1.0))
 
 
+def view_spread(views: np.ndarray) -> float:
+    """The mean great-circle angle (radians) between two of the views (N, 2), N >= 2: how widely a mission looked."""
+    views = np.asarray(views, dtype=float)
+    if views.ndim != 2 or views.shape[1] != 2 or len(views) < 2:
+        raise ValueError(f"view_spread needs at least two views as (N, 2) [elevation, azimuth], got shape {views.shape}")
+    return float(angular_distance(views, views)[np.triu_indices(len(views), 1)].mean())
+
+
 def fibonacci_hemisphere(n: int, azimuth_offset: float = 0.0, min_elevation: float = MIN_ELEVATION) -> np.ndarray:
     """``n`` evenly spread views: n rings of equal area (z = (i + 0.5) / n), golden-angle azimuths.
 

@@ -147,12 +147,13 @@ def test_every_chapters_equations_render_without_a_network(site):
     """MathJax is part of the site (no CDN): in a browser with no network, as here, every equation is typeset and
     none is left as raw LaTeX."""
     typeset = {}
-    for chapter in book.chapters():
-        dom = rendered_dom(site, chapter.with_suffix(".html").name)
+    for page in [chapter.with_suffix(".html").name for chapter in book.chapters()] + ["COURSE.html"]:
+        dom = rendered_dom(site, page)
         text = re.sub(r"<(script|style)\b.*?</\1>", "", dom, flags=re.S)
         text = re.sub(r"<mjx-container\b.*?</mjx-container>", "", text, flags=re.S)  # typeset math keeps its source
         raw = [m for m in ("\\(", "\\[") if m in text]
-        assert not raw, f"{chapter.name}: equations shown as raw LaTeX ({raw})"
-        typeset[chapter.name] = dom.count("<mjx-container")
-    assert typeset["04_entropy_utility.ipynb"] > 50, typeset  # the utility's chapter is full of equations
-    assert sum(n > 0 for n in typeset.values()) >= 5, typeset
+        assert not raw, f"{page}: equations shown as raw LaTeX ({raw})"
+        typeset[page] = dom.count("<mjx-container")
+    assert typeset["04_entropy_utility.html"] > 50, typeset  # the utility's chapter is full of equations
+    assert typeset["COURSE.html"] > 5, typeset  # the course plan's misconceptions and answers hold equations
+    assert sum(n > 0 for n in typeset.values()) >= 6, typeset

@@ -12,6 +12,7 @@ from stair_lite.geometry import (
     pose_to_view,
     random_hemisphere,
     test_views,
+    view_spread,
     view_to_pose,
     views_to_directions,
 )
@@ -132,3 +133,15 @@ def test_pixel_rays_have_unit_camera_z_and_hit_the_principal_point():
     centre = dirs.reshape(4, 4, 3)[1:3, 1:3].reshape(-1, 3).mean(axis=0)
     np.testing.assert_allclose(centre, pose[:3, 2], atol=1e-12)
     assert np.allclose(views_to_directions(np.array([[np.pi / 2, 0]])), [[0, 0, 1]])
+
+
+def test_view_spread_is_the_mean_angle_between_pairs_and_ignores_a_turn_about_the_vertical():
+    assert np.isclose(view_spread(np.array([[0.0, 0.0], [0.0, np.pi]])), np.pi)           # opposite on the horizon
+    top_and_two = np.array([[np.pi / 2, 0.0], [0.0, 0.0], [0.0, np.pi / 2]])                # three right angles
+    assert np.isclose(view_spread(top_and_two), np.pi / 2)
+    views = fibonacci_hemisphere(10)
+    turned = views + np.array([0.0, 1.234])
+    assert np.isclose(view_spread(views), view_spread(turned))
+    assert view_spread(views[:2]) != view_spread(views)                                     # not a constant
+    with pytest.raises(ValueError, match="at least two views"):
+        view_spread(views[:1])

@@ -114,7 +114,8 @@ def _composite_hint(weights, t, colours, rgb, depth) -> str:
         return "that is the depth of the heaviest sample; the rendered depth is the expectation sum_i w_i t_i"
     if _close(rgb, want_rgb):
         return "the colour is right; the depth is D = sum_i w_i t_i"
-    return "C = sum_i w_i c_i + (1 - sum_i w_i) * white, D = sum_i w_i t_i"
+    return ("compare with Eqs. 2-3 on a ray of one sample of weight 0.5: the colour it adds, what shows through the rest, "
+            "and the depth")
 
 
 @compares_with(_composite_reference)
@@ -255,8 +256,7 @@ def check_batch_loss(batch_loss, n_trials: int = 20, seed: int = 0) -> bool:
             hint = _LOSS_HINTS["no_clamp"]
         else:
             hint = diagnose(rounded, variants, _LOSS_HINTS,
-                            "L = lambda_1 mean_r ||C - C_hat||^2 + lambda_2 mean_r |D - D_hat| + lambda_3 mean_r "
-                            "-log(max(S_hat[label], log_clamp))")
+                            "compare with Eqs. 6-9 loss by loss on a batch of one ray: each loss's value, then their weights")
         raise AssertionError(f"batch_loss returned {answers[i]:.6f}, expected {cases[i]['right']:.6f} (batch {i})\n"
                              f"Hint: {hint}")
     print(f"check_batch_loss: {n_trials} random batches agree (each with a ray that hits nothing and a zero probability)")
@@ -388,8 +388,8 @@ def check_trilinear(trilinear, n_trials: int = 8, seed: int = 0) -> bool:
         if _close(got, variants["right"]):
             continue
         hint = next((h for name, h in _TRILINEAR_HINTS.items() if _close(got, variants[name])),
-                    "weight each of the 8 corners of the point's cell by the product over the axes of f (upper corner) "
-                    "or 1 - f (lower corner), with f the fractional position inside the cell")
+                    "check a point at a vertex (it must return that vertex's value) and one halfway along a cell edge (the mean of "
+                    "the edge's two vertices), then Eq. 1's weights in 3-D")
         bad = int(np.argmax(np.abs(got - variants["right"]).max(axis=1)))
         raise AssertionError(f"trilinear is wrong on a {r}^3 grid with bound {bound}: at x = {np.round(x[bad], 4)} you "
                              f"returned {np.round(got[bad], 4)}, expected {np.round(variants['right'][bad], 4)}\n"

@@ -63,7 +63,7 @@ def check_class_entropy(fn, seed: int = 0) -> bool:
             variants[name].append(_key(value))
         answers.append(_key(arr))
         if arr is None or arr.shape != right.shape or not np.allclose(arr, right, atol=1e-6, equal_nan=False):
-            hint = diagnose(answers, variants, _ENTROPY_HINTS, fallback="compare with -sum_c p_c ln p_c per row")
+            hint = diagnose(answers, variants, _ENTROPY_HINTS, fallback="compare with the entropy of a distribution over the classes, row by row, on a uniform row and a one-hot row")
             shown = "None" if arr is None else f"shape {arr.shape}: {np.round(arr, 4)}"
             raise AssertionError(f"for sem =\n{np.round(sem, 3)}\nexpected {np.round(right, 4)}, got {shown}; {hint}")
     print(f"class_entropy: correct on {len(cases)} sets of class distributions (random, one-hot and split ones)")
@@ -130,7 +130,7 @@ def check_soft_exploitation(fn, seed: int = 0) -> bool:
             arr = np.full(len(h_ray), float(arr))  # one number for all views: compared as the "total" mistake
         answers.append(_key(arr))
         if arr.shape != right.shape or not np.allclose(arr, right, rtol=1e-6, atol=1e-9):
-            hint = diagnose(answers, variants, _SOFT_HINTS, fallback="sum over each view's rays of h_ray * p_T")
+            hint = diagnose(answers, variants, _SOFT_HINTS, fallback="compare with the section's soft mask on one view of two rays: what weighs each ray's entropy")
             raise AssertionError(f"for targets {targets}: expected {np.round(right, 4)}, got {np.round(arr, 4)}; {hint}")
     print(f"soft_exploitation: correct on {len(cases)} sets of 3 views (one and two target classes)")
     return True

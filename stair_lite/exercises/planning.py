@@ -90,7 +90,7 @@ def check_choose_view(choose_view, n_random: int = 60, seed: int = 0) -> bool:
         u_et, u_er, epsilon, allowed = cases[i]
         got, want = answers[i], variants["right"][i]
         hint = (_CHOOSE_HINTS["no_exclusion"] if not allowed[got] else
-                diagnose(answers, variants, _CHOOSE_HINTS, "return the allowed index of the largest U_et + epsilon * U_er"))
+                diagnose(answers, variants, _CHOOSE_HINTS, "compare with Eq. 15 on three candidates by hand, one of them not allowed"))
         raise AssertionError(
             f"choose_view picked candidate {got} (U_et {u_et[got]:.2f}, U_er {u_er[got]:.2f}), expected {want} "
             f"(U_et {u_et[want]:.2f}, U_er {u_er[want]:.2f}) at epsilon {epsilon:.2f}\nHint: {hint}")
@@ -172,7 +172,8 @@ def check_first_step_above(first_step_above, n_random: int = 100, seed: int = 0)
         elif got is None:
             hint = "the curve does exceed the threshold: return its first step (careful: step 1 is a valid answer)"
         else:
-            hint = "walk the records in order and return record['step'] of the first with record[key] > threshold"
+            hint = ("check a three-step mission by hand: which step is the first above the threshold, and what the function "
+                    "returns when none is")
         raise AssertionError(f"first_step_above is wrong {where}\nHint: {hint}")
     print(f"check_first_step_above: {len(cases)} curves agree (including step 1, never, ties and dips)")
     return True
@@ -201,7 +202,8 @@ def check_area_under_curve(area_under_curve, n_random: int = 100, seed: int = 0)
         elif abs(got - y.mean()) < 1e-9 * max(1.0, abs(want)):
             hint = "that is the mean value, not the area: sum the trapezoids between consecutive steps"
         else:
-            hint = "sum over i of (y_i + y_{i+1}) / 2 * (step_{i+1} - step_i)"
+            hint = ("check two records by hand: the area of one trapezoid between consecutive steps, then steps that are not "
+                    "1 apart")
         raise AssertionError(f"area_under_curve is wrong for {key} over {len(records)} steps: got {got:.6f}, "
                              f"expected {want:.6f}\nHint: {hint}")
     print(f"check_area_under_curve: {len(cases)} curves agree")

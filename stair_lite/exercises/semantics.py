@@ -76,7 +76,8 @@ def check_render_semantics(render_semantics, n_trials: int = 100, seed: int = 0)
         elif not _close(got.sum(), 1.0):
             hint = f"your vector sums to {got.sum():.4f}, but a rendered class distribution must sum to 1"
         else:
-            hint = "S = weights @ probs, then S[0] += 1 - weights.sum()"
+            hint = ("compare with Eq. 4 and section 2 on a ray of one sample: what the sample contributes, and where the "
+                    "probability the ray does not stop goes")
         raise AssertionError(
             f"render_semantics is wrong for a ray with {n} samples (sum of weights {weights.sum():.4f}): "
             f"got {np.round(got, 4)}, expected {np.round(want, 4)}\nHint: {hint}"
@@ -128,7 +129,8 @@ def check_target_only_occupancy(target_only_occupancy, n_trials: int = 50, seed:
         elif _close(got, occ * np.isin(label, targets) * probs[np.arange(n), label]):
             hint = "do not scale the occupancy by the class probability: keep it unchanged or set it to 0"
         else:
-            hint = "mask = np.isin(logits.argmax(axis=1), targets); return occ * mask"
+            hint = ("a sample keeps its occupancy only if its most likely class is a target (Sec. IV-A); check one sample whose "
+                    "class is a target and one whose class is not")
         i = int(np.argmax(np.abs(got - want)))
         raise AssertionError(
             f"target_only_occupancy is wrong for targets {targets}: sample {i} with logits {np.round(logits[i], 3)} "
@@ -180,7 +182,8 @@ def check_replay_probabilities(replay_probabilities, n_trials: int = 50, seed: i
         elif _close(got, (w := np.exp(-c)) / w.sum()):
             hint = "exp(-count) is a softmax of the counts, not inverse proportionality: use 1 / (1 + count)"
         else:
-            hint = "w = 1 / (1 + counts); return w / w.sum()"
+            hint = ("re-read the replay rule of the section: how a ray's chance depends on how often it was drawn, and what the "
+                    "chances of all rays must add up to")
         raise AssertionError(
             f"replay_probabilities is wrong for counts {counts[:8]}{' ...' if len(counts) > 8 else ''}: "
             f"got {np.round(got[:8], 4)}, expected {np.round(want[:8], 4)}\nHint: {hint}"

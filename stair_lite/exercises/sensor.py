@@ -78,7 +78,7 @@ def check_scale_intrinsics(scale_intrinsics, n_trials: int = 40, seed: int = 0) 
         if _close(got, variants["right"]):
             continue
         hint = next((h for name, h in _SCALED_HINTS.items() if _close(got, variants[name])),
-                    "every pixel length scales with the image: fx' = s fx, fy' = s fy, cx' = s cx, cy' = s cy")
+                    "which entries of K are lengths in pixels, and which do not change when the image is resized?")
         raise AssertionError(f"scale_intrinsics is wrong for factor {factor} and K =\n{np.round(K, 3)}\nyou returned\n"
                              f"{np.round(got, 4)}\nexpected\n{np.round(variants['right'], 4)}\nHint: {hint}")
     print(f"check_scale_intrinsics: {n_trials} random cameras and factors agree")
@@ -216,7 +216,8 @@ def check_view_angle(view_angle, n_trials: int = 200, seed: int = 0) -> bool:
         elif abs(got - np.degrees(want)) <= 1e-4:
             hint = "return radians, not degrees"
         else:
-            hint = "d = (cos el cos az, cos el sin az, sin el) for each view; the angle is arccos(clip(d_a . d_b, -1, 1))"
+            hint = ("check two views you know: the top view against a view on the horizon (90 deg), and two opposite views on "
+                    "the horizon (180 deg); compute the angle between the views' directions, not between their (el, az) pairs")
         raise AssertionError(
             f"view_angle is wrong for views {np.round(a, 4)} and {np.round(b, 4)}: got {got:.6f}, expected {want:.6f}\nHint: {hint}"
         )

@@ -82,7 +82,8 @@ def check_ray_entropy(ray_entropy, n_trials: int = 20, seed: int = 0) -> bool:
             hint = ("close but not exact: clipping o to [eps, 1 - eps] before the log gives o = 0 and o = 1 a small "
                     "entropy instead of exactly 0; let those terms be 0 (np.where, or scipy.special.xlogy)")
         else:
-            hint = "H(o) = -o ln o - (1 - o) ln(1 - o); T_i = prod_{j<i} (1 - o_j); H_ray = sum_i T_i H(o_i)"
+            hint = ("compare with Eqs. 10-11 term by term on a ray of two samples, e.g. o = (0.5, 0.5): the entropy of each "
+                    "sample in nats, and the chance that the ray reaches it")
         i = int(np.argmax(np.abs(got - want)))
         raise AssertionError(f"ray_entropy is wrong: ray {i} with occupancies {np.round(occ[i], 3)} gave {got[i]:.6f}, "
                              f"expected {want[i]:.6f}\nHint: {hint}")
@@ -141,7 +142,8 @@ def check_utility(utility, n_trials: int = 20, seed: int = 0) -> bool:
         elif _close(got, _utility_reference(h, labels, tuple(c for c in range(NUM_CLASSES) if c not in targets), epsilon)[0]):
             hint = "the mask is inverted: U_et counts the rays whose label IS a target"
         else:
-            hint = "mask = np.isin(labels, targets); U_er = h.sum over the image; U_et = (h * mask).sum; U = U_et + eps U_er"
+            hint = ("compare with Eqs. 12-15 on one view of two rays, one labelled a target: which rays each term sums, and how "
+                    "epsilon combines them")
         raise AssertionError(f"utility is wrong for targets {targets}, epsilon {epsilon:.3g}: got {np.round(got, 4)}, "
                              f"expected {np.round(want, 4)}\nHint: {hint}")
     print(f"check_utility: {n_trials} random sets of views agree")

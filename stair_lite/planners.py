@@ -163,7 +163,9 @@ class UtilityPlanner(Planner):
         best = int(np.argmax(value))
         if not np.isfinite(value[best]):
             raise RuntimeError("every candidate lies within the minimum separation of a visited view")
-        return Decision(view=candidates[best], candidates=candidates, scores=scores, chosen_index=best)
+        # the first-stage views the second stage was drawn around, best first (the order of the draws)
+        return Decision(view=candidates[best], candidates=candidates, scores=scores, chosen_index=best,
+                        info={"resampled_around": uniform[order]})
 
 
 @dataclass

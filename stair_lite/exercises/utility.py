@@ -236,13 +236,7 @@ def check_two_stage_search(fn, seed: int = 0) -> bool:
     the ``top_k`` best allowed ones; ``score(views)`` of all of them; the index of the best allowed candidate."""
     rng = np.random.default_rng(seed)
     for score, visited, offset, resample, n_uniform, top_k in _search_cases(rng):
-        centres = []  # the views fn resamples around, in the order it asks
-
-        def recording(view, resample=resample):
-            centres.append(np.asarray(view, dtype=float))
-            return resample(view)
-
-        got = _call(fn, score, visited.copy(), offset, recording, n_uniform, top_k)
+        got = _call(fn, score, visited.copy(), offset, resample, n_uniform, top_k)
         if not isinstance(got, tuple) or len(got) != 3:
             raise AssertionError(f"two_stage_search must return (candidates, values, best), got {type(got).__name__}")
         candidates, values, best = got
@@ -255,12 +249,7 @@ def check_two_stage_search(fn, seed: int = 0) -> bool:
         variants = _search_variants(score, visited, offset, resample, n_uniform, top_k)
         right_set, right_best = variants["right"]
         if np.array_equal(_sorted_views(candidates), right_set) and _close(best_view, right_best):
-            uniform = fibonacci_hemisphere(n_uniform, azimuth_offset=offset)
-            in_order = uniform[_best_allowed_first(uniform, score, visited, top_k)]
-            if not _close(np.array(centres), in_order):
-                raise AssertionError("two_stage_search resamples around the right views, but in another order: call "
-                                     "resample on the top K best first (descending utility), as the planner draws")
-            continue
+            continue  # in any order: the candidates as a set and the chosen view
         where = f"(n_uniform {n_uniform}, top_k {top_k}, visited {np.round(visited, 3).tolist()})"
         for name, (views, chosen) in variants.items():
             if name != "right" and np.array_equal(_sorted_views(candidates), views) and _close(best_view, chosen):

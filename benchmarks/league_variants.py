@@ -19,7 +19,7 @@ from scipy.stats import rankdata
 
 import stair_lite  # noqa: F401
 from stair_lite.config import PlanConfig
-from stair_lite.headroom import Headroom, MapAfter, rank_correlation
+from stair_lite.headroom import Headroom, rank_correlation, table_state
 from stair_lite.planners import CoveragePlanner, FisherPlanner, UtilityPlanner
 from stair_lite.utility import UtilityOptions
 
@@ -51,7 +51,7 @@ METRICS = ("f1", "psnr_clean", "f1_5cm", "chamfer")
 
 def scores_on_table(h: Headroom) -> dict[str, np.ndarray]:
     """Every variant's score of the table's spread views (stream 0), and the rank sums."""
-    state = MapAfter(h.scene, h.after, h.seed, h.preset)
+    state = table_state(h)  # refused if the seeded mission no longer reaches the table's state
     spread = [r for r in h.rows if r["kind"] == "spread" and int(r.get("stream", 0)) == 0]
     views = np.radians([[r["elevation_deg"], r["azimuth_deg"]] for r in spread])
     scores = {}

@@ -220,18 +220,25 @@ def measure_headroom(scene: str, after: int, n_candidates: int, seed: int = 0, p
     return result
 
 
-def add_utilities(result: Headroom, utilities: tuple[str, ...], device: str = "cpu", log=print) -> Headroom:
-    """``result`` with more utilities measured on the same realised views: the mission is run again (it is seeded), each
-    new planner's pick is realised (stream 0), and every utility scores every realised view again."""
-    new = [u for u in utilities if u not in result.utilities]
-    if not new:
-        return result
+def table_state(result: Headroom, device: str = "cpu") -> MapAfter:
+    """The map of ``result``'s seeded mission after its views, run again; refused when it no longer reaches the stored
+    metrics (the code or the thread count changed), as then the table's gains are not this map's."""
     state = MapAfter(result.scene, result.after, result.seed, result.preset, device)
     moved = {m: (result.before[m], state.before[m]) for m in result.metrics if abs(state.before[m] - result.before[m]) > 1e-9}
     if moved:
         raise ValueError(f"{result.scene} after {result.after}: the seeded mission no longer reaches the table's state "
                          f"(stored and now: {moved}): the code or the thread count changed; measure the table anew "
                          "(--again)")
+    return state
+
+
+def add_utilities(result: Headroom, utilities: tuple[str, ...], device: str = "cpu", log=print) -> Headroom:
+    """``result`` with more utilities measured on the same realised views: the mission is run again (it is seeded), each
+    new planner's pick is realised (stream 0), and every utility scores every realised view again."""
+    new = [u for u in utilities if u not in result.utilities]
+    if not new:
+        return result
+    state = table_state(result, device)
     names = (*result.utilities, *new)
     planners = {name: state.planner(name) for name in names}
     rows = [dict(r) for r in result.rows]

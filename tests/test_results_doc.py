@@ -1,6 +1,8 @@
 """RESULTS.md quotes the claim verdicts of the stored sweeps; they must be what the code computes now."""
 from pathlib import Path
 
+import pytest
+
 from stair_lite.claims import markdown_report
 from stair_lite.experiments import RESULTS_DIR, collect
 
@@ -26,15 +28,29 @@ def test_results_md_quotes_the_label_noise_verdicts():
     assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite label-noise-claims`"
 
 
-def test_results_md_quotes_the_computed_league():
+@pytest.mark.parametrize("marker, folder", [("league", "headroom_league_lite"), ("league former", "headroom_league_lite_former")])
+def test_results_md_quotes_the_computed_league(marker, folder):
     from stair_lite.headroom import Headroom, league_markdown
 
-    begin, end = "<!-- league: generated", "<!-- league: end -->"
+    begin, end = f"<!-- {marker}: generated", f"<!-- {marker}: end -->"
     text = RESULTS_MD.read_text()
     quoted = text[text.index(begin):text.index(end)].split("\n", 1)[1].rstrip("\n")
-    folder = RESULTS_DIR / "headroom_league_lite"
-    computed = league_markdown([Headroom.load(p.with_suffix("")) for p in sorted(folder.glob("*.json"))]).rstrip("\n")
-    assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite league ...`"
+    computed = league_markdown([Headroom.load(p.with_suffix("")) for p in sorted((RESULTS_DIR / folder).glob("*.json"))])
+    assert quoted == computed.rstrip("\n"), f"RESULTS.md is stale: paste the output of `python -m stair_lite league --results {folder}`"
+
+
+def test_the_stored_league_is_of_the_adopted_map():
+    """The league's tables are the re-run's: their seeded missions planned on the adopted map (preset lite), on which
+    STAIR's utility is the marking of the unknown that ``stair_unknown`` names, so the two score every view alike, and
+    the rule before the league (``stair_unmarked``) does not."""
+    from stair_lite.headroom import Headroom
+
+    tables = [Headroom.load(p.with_suffix("")) for p in sorted((RESULTS_DIR / "headroom_league_lite").glob("*.json"))]
+    assert len(tables) == 12 and {t.preset for t in tables} == {"lite"} and {t.streams for t in tables} == {3}
+    for t in tables:
+        spread = [r for r in t.rows if r["kind"] == "spread"]
+        assert [r["u_stair"] for r in spread] == [r["u_stair_unknown"] for r in spread], (t.scene, t.after)
+        assert [r["u_stair"] for r in spread] != [r["u_stair_unmarked"] for r in spread], (t.scene, t.after)
 
 
 def test_no_stored_mission_has_a_phantom_below_the_ground():

@@ -11,16 +11,19 @@ CLASS_NAMES: tuple[str, ...] = ("background", "car", "chair", "table", "sofa", "
 NUM_CLASSES = len(CLASS_NAMES)
 BACKGROUND = 0
 
-# One fixed RGB colour per class (floats in [0, 1]) for label images; same order as CLASS_NAMES.
+# One fixed RGB colour per class (floats in [0, 1]) for label images; same order as CLASS_NAMES. Each object class's
+# label colour is a flat, saturated colour of its objects' base hue (``scenes.DEFAULT_COLOURS``: red cars, teal sofas),
+# so an object's pixels and its label share a hue and no class's label takes another class's body colour; chair and
+# table, both brown, differ in lightness.
 CLASS_COLOURS = np.array(
     [
         [1.00, 1.00, 1.00],  # background: white
-        [0.40, 0.40, 0.40],  # car: grey
-        [0.00, 0.00, 1.00],  # chair: blue
-        [0.00, 1.00, 1.00],  # table: cyan
-        [1.00, 0.00, 0.00],  # sofa: red
-        [0.40, 0.00, 0.80],  # airplane: purple
-        [0.00, 0.40, 0.00],  # camera: dark green
+        [0.85, 0.10, 0.08],  # car: red
+        [0.45, 0.24, 0.06],  # chair: dark brown
+        [0.98, 0.80, 0.45],  # table: light tan
+        [0.00, 0.62, 0.72],  # sofa: teal
+        [0.22, 0.30, 0.95],  # airplane: blue
+        [0.10, 0.10, 0.10],  # camera: near black
     ],
     dtype=np.float32,
 )

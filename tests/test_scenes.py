@@ -237,3 +237,22 @@ def test_a_binary_scene_file_is_named(tmp_path):
     bad.write_bytes(bytes(range(256)))
     with pytest.raises(ValueError, match="binary.json is not valid JSON"):
         load_scene_spec(bad)
+
+
+def test_each_label_colour_shares_its_objects_hue_and_not_another_class_s():
+    """A label image never paints a class in the body colour of another class's objects: each object class's label
+    colour is nearest, of all the base colours, to its own objects' (in RGB), and has their hue within 30 degrees
+    (near-grey colours, the camera's, have no hue to compare)."""
+    import colorsys
+
+    from stair_lite.classes import CLASS_COLOURS, CLASS_NAMES
+    from stair_lite.scenes import DEFAULT_COLOURS
+
+    names = [n for n in CLASS_NAMES if n in DEFAULT_COLOURS]
+    bases = np.array([DEFAULT_COLOURS[n] for n in names])
+    for n in names:
+        label = CLASS_COLOURS[CLASS_NAMES.index(n)]
+        assert names[int(np.argmin(np.linalg.norm(bases - label, axis=1)))] == n, n
+        (h_label, s_label, _), (h_base, s_base, _) = colorsys.rgb_to_hsv(*label), colorsys.rgb_to_hsv(*DEFAULT_COLOURS[n])
+        if min(s_label, s_base) > 0.2:
+            assert min(abs(h_label - h_base), 1 - abs(h_label - h_base)) * 360 < 30, n

@@ -142,6 +142,38 @@ class SkipGrid:
         ijk = torch.stack([rows % r, (rows // r) % r, rows // (r * r)], dim=1)
         return axis[ijk.amin(dim=0)] - self.lattice.spacing, axis[ijk.amax(dim=0)] + self.lattice.spacing
 
+    def image_footprint(self, intrinsics: Intrinsics, pose: np.ndarray) -> torch.Tensor | None:
+        """Which pixels (H*W,) of a pinhole view at ``pose`` can have a ray through a kept cell: those whose centre lies
+        in the image box of a kept cell's 8 projected corners (a point is in a kept cell when its nearest vertex is
+        kept, so the cell is the cube of one spacing around the vertex, grown by 2 % against rounding; a cube's image
+        lies in the box of its corners' images, so no other pixel's ray meets it). None when a kept cell reaches
+        behind the camera (its image has no finite box)."""
+        h, w = intrinsics.height, intrinsics.width
+        rows = self.keep.nonzero().squeeze(1)
+        if len(rows) == 0:
+            return torch.zeros(h * w, dtype=torch.bool, device=self.keep.device)
+        r, axis = self.lattice.resolution, self.lattice.axis(self.keep.device).double()
+        centres = torch.stack([axis[rows % r], axis[(rows // r) % r], axis[rows // (r * r)]], dim=1)
+        half = 0.51 * self.lattice.spacing
+        signs = torch.tensor([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=torch.float64,
+                             device=self.keep.device)
+        pose = torch.as_tensor(pose, dtype=torch.float64, device=self.keep.device)
+        camera = ((centres[:, None, :] + half * signs) - pose[:3, 3]) @ pose[:3, :3]  # R^T (p - t), (K, 8, 3)
+        if camera[..., 2].min() <= 1e-6:
+            return None
+        u = intrinsics.fx * camera[..., 0] / camera[..., 2] + intrinsics.cx
+        v = intrinsics.fy * camera[..., 1] / camera[..., 2] + intrinsics.cy
+        # pixel i's centre lies at i + 0.5: the columns i with u_min <= i + 0.5 <= u_max, clipped to the image
+        first_col, last_col = torch.ceil(u.amin(1) - 0.5).clamp(0, w), torch.floor(u.amax(1) - 0.5).clamp(-1, w - 1)
+        first_row, last_row = torch.ceil(v.amin(1) - 0.5).clamp(0, h), torch.floor(v.amax(1) - 0.5).clamp(-1, h - 1)
+        some = (first_col <= last_col) & (first_row <= last_row)
+        c0, c1, r0, r1 = (x[some].long() for x in (first_col, last_col, first_row, last_row))
+        # every box painted at once: +1 at its corner, -1 past its right and lower edges, +1 past both; 2-D cumsum
+        marks = torch.zeros(h + 1, w + 1, dtype=torch.int32, device=self.keep.device)
+        for rr, cc, sign in ((r0, c0, 1), (r0, c1 + 1, -1), (r1 + 1, c0, -1), (r1 + 1, c1 + 1, 1)):
+            marks.index_put_((rr, cc), torch.full_like(rr, sign, dtype=torch.int32), accumulate=True)
+        return (marks.cumsum(0).cumsum(1)[:h, :w] > 0).reshape(-1)
+
     def above(self, z_min: float) -> "SkipGrid":
         """This grid without the vertex layers below height ``z_min``."""
         r = self.lattice.resolution
@@ -350,7 +382,12 @@ def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, c
             for pose in poses]
     origins, dirs = torch.cat([o for o, _ in rays]), torch.cat([d for _, d in rays])
     del rays
-    live = rays_through(skip, origins, dirs, cfg)
+    # only the pixels in the kept cells' image footprint can see one: sample the others' rays no further
+    footprints = [skip.image_footprint(intrinsics, pose) for pose in poses]
+    candidate = torch.cat([torch.ones(h * w, dtype=torch.bool, device=field.device) if f is None else f
+                           for f in footprints])
+    live = torch.zeros(len(origins), dtype=torch.bool, device=field.device)
+    live[candidate] = rays_through(skip, origins[candidate], dirs[candidate], cfg)
     images = torch.ones(2, len(origins), 3, device=field.device)  # the full and the cut composite of every ray
     rows = live.nonzero().squeeze(1)
     for chunk in torch.split(rows, cfg.chunk_rays) if len(rows) else ():

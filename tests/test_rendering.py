@@ -142,6 +142,39 @@ def test_rays_through_culls_by_the_kept_box_exactly_as_sampling_every_ray():
     assert rays_through(SkipGrid(keep, lattice), origins, dirs, cfg).float().mean() < 0.5  # the box culls
 
 
+def test_a_kept_cells_image_footprint_holds_every_ray_that_meets_one_and_culls_the_rest():
+    """``SkipGrid.image_footprint`` is conservative: every pixel whose ray has a sample in a kept cell (what
+    ``rays_through`` finds) lies in it, for blocks, scattered cells and cells on the cube's faces, from high, low and
+    top views; it leaves most of the image out for a small block; and it gives up (None) when a kept cell reaches
+    behind the camera."""
+    from stair_lite.config import RenderConfig
+    from stair_lite.geometry import Intrinsics, pixel_rays, view_to_pose
+    from stair_lite.lattice import Lattice
+    from stair_lite.rendering import SkipGrid, rays_through
+
+    lattice, cfg = Lattice(24), RenderConfig(n_samples=96)
+    k = Intrinsics.from_fov().scaled(0.2)
+    block = torch.zeros(24, 24, 24, dtype=torch.bool)  # [z, y, x]
+    block[3:6, 10:13, 8:11] = True
+    scattered = torch.as_tensor(np.random.default_rng(1).random((24, 24, 24)) < 0.003)
+    scattered[:4], scattered[20:], scattered[:, :4], scattered[:, 20:], scattered[:, :, :4], scattered[:, :, 20:] = (False,) * 6
+    # (inside |x|, |y|, |z| < 1.1 m: in front of every camera on the hemisphere of radius 2 m)
+    for mask in (block, scattered):
+        skip = SkipGrid(mask, lattice)
+        for view in ((0.3, 0.4), (1.2, 2.0), (np.pi / 2, 0.0), (0.05, 5.0)):
+            pose = view_to_pose(*view)
+            o, d = (torch.as_tensor(a, dtype=torch.float32) for a in pixel_rays(k, pose))
+            footprint = skip.image_footprint(k, pose)
+            live = rays_through(skip, o, d, cfg)
+            assert live.any() and torch.all(footprint[live]), view  # a superset of the rays that meet a kept cell
+            if mask is block:
+                assert footprint.float().mean() < 0.2, view  # and it culls
+    edge = torch.zeros(24, 24, 24, dtype=torch.bool)
+    edge[20:, 12, 23] = True  # cells at the cube's face x = 1.5, high up
+    assert SkipGrid(edge, lattice).image_footprint(k, view_to_pose(np.pi / 4, 0.0)) is None  # behind the camera
+    assert not SkipGrid(torch.zeros_like(edge), lattice).image_footprint(k, view_to_pose(0.5, 0.0)).any()
+
+
 def test_lattice_block_holds_the_vertices_in_a_box():
 
 

@@ -365,8 +365,8 @@ def render_target_views_and_cut(field, intrinsics: Intrinsics, poses: list[np.nd
                                 rays_per_group: int = 2**20) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """``render_target_views`` with ``skip`` and with ``skip.above(z_min)``, from one evaluation of the
     field per sample: the second composite zeroes the samples whose nearest lattice vertex lies below
-    ``z_min``, and colour is evaluated once where either composite's weight matters. Rays none of whose
-    samples lies in a kept cell are white in both without further work (``rays_through``); the others of
+    ``z_min``, and colour is evaluated once where either composite's weight matters. Rays outside the kept
+    cells' image footprint (``SkipGrid.image_footprint``) are white in both without further work; the others of
     a group of poses (about ``rays_per_group`` rays) are rendered together, in chunks. Yields the two images
     of each pose in turn: only one group's images are held at a time (the paper's 100 test views of 400x400
     pixels, kept whole, would be 384 MB)."""
@@ -382,12 +382,12 @@ def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, c
             for pose in poses]
     origins, dirs = torch.cat([o for o, _ in rays]), torch.cat([d for _, d in rays])
     del rays
-    # only the pixels in the kept cells' image footprint can see one: sample the others' rays no further
-    footprints = [skip.image_footprint(intrinsics, pose) for pose in poses]
-    candidate = torch.cat([torch.ones(h * w, dtype=torch.bool, device=field.device) if f is None else f
-                           for f in footprints])
-    live = torch.zeros(len(origins), dtype=torch.bool, device=field.device)
-    live[candidate] = rays_through(skip, origins[candidate], dirs[candidate], cfg)
+    # only the pixels in the kept cells' image footprint can see one; the others are white without further work. A
+    # footprint pixel whose samples all miss the kept cells comes out white too (it evaluates nothing); a view with a
+    # kept cell behind its camera (no footprint) finds its rays by sampling them (rays_through)
+    live = torch.cat([rays_through(skip, o, d, cfg) if f is None else f
+                      for o, d, f in zip(torch.split(origins, h * w), torch.split(dirs, h * w),
+                                         (skip.image_footprint(intrinsics, pose) for pose in poses))])
     images = torch.ones(2, len(origins), 3, device=field.device)  # the full and the cut composite of every ray
     rows = live.nonzero().squeeze(1)
     for chunk in torch.split(rows, cfg.chunk_rays) if len(rows) else ():

@@ -142,6 +142,17 @@ class SkipGrid:
         ijk = torch.stack([rows % r, (rows // r) % r, rows // (r * r)], dim=1)
         return axis[ijk.amin(dim=0)] - self.lattice.spacing, axis[ijk.amax(dim=0)] + self.lattice.spacing
 
+    @cached_property
+    def _kept_cell_corners(self) -> torch.Tensor:
+        """The 8 corners (K, 8, 3) of each kept vertex's cell (the cube of one spacing around it, grown by 2 % against
+        rounding), in float64; computed once, for every view's ``image_footprint``."""
+        rows = self.keep.nonzero().squeeze(1)
+        r, axis = self.lattice.resolution, self.lattice.axis(self.keep.device).double()
+        centres = torch.stack([axis[rows % r], axis[(rows // r) % r], axis[rows // (r * r)]], dim=1)
+        signs = torch.tensor([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=torch.float64,
+                             device=self.keep.device)
+        return centres[:, None, :] + 0.51 * self.lattice.spacing * signs
+
     def image_footprint(self, intrinsics: Intrinsics, pose: np.ndarray) -> torch.Tensor | None:
         """Which pixels (H*W,) of a pinhole view at ``pose`` can have a ray through a kept cell: those whose centre lies
         in the image box of a kept cell's 8 projected corners (a point is in a kept cell when its nearest vertex is
@@ -149,16 +160,11 @@ class SkipGrid:
         lies in the box of its corners' images, so no other pixel's ray meets it). None when a kept cell reaches
         behind the camera (its image has no finite box)."""
         h, w = intrinsics.height, intrinsics.width
-        rows = self.keep.nonzero().squeeze(1)
-        if len(rows) == 0:
+        corners = self._kept_cell_corners
+        if len(corners) == 0:
             return torch.zeros(h * w, dtype=torch.bool, device=self.keep.device)
-        r, axis = self.lattice.resolution, self.lattice.axis(self.keep.device).double()
-        centres = torch.stack([axis[rows % r], axis[(rows // r) % r], axis[rows // (r * r)]], dim=1)
-        half = 0.51 * self.lattice.spacing
-        signs = torch.tensor([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=torch.float64,
-                             device=self.keep.device)
         pose = torch.as_tensor(pose, dtype=torch.float64, device=self.keep.device)
-        camera = ((centres[:, None, :] + half * signs) - pose[:3, 3]) @ pose[:3, :3]  # R^T (p - t), (K, 8, 3)
+        camera = (corners - pose[:3, 3]) @ pose[:3, :3]  # R^T (p - t), (K, 8, 3)
         if camera[..., 2].min() <= 1e-6:
             return None
         u = intrinsics.fx * camera[..., 0] / camera[..., 2] + intrinsics.cx

@@ -90,22 +90,21 @@ def sample_along_rays(
     return t
 
 
-def samples_in_box(t_near: torch.Tensor, t_far: torch.Tensor, n_samples: int, origins: torch.Tensor, dirs: torch.Tensor,
-                   box: tuple[torch.Tensor, torch.Tensor], near: float) -> tuple[torch.Tensor, torch.Tensor]:
-    """The unjittered samples of ``sample_along_rays`` (strata centres of [t_near, t_far]) that can lie in ``box`` (low,
-    high corners): per ray, a window of consecutive sample indices with one sample of margin at either end, as
-    parameters t (R, W) computed as ``sample_along_rays`` computes them (the same floats), and which of them belong to
-    the ray's window (R, W) (W: the widest window of the rays). Every sample outside the windows lies outside the box."""
-    b_near, b_far, crosses = ray_box_intersection(origins, dirs, box[1], near, low=box[0])
+def window_indices(t_near: torch.Tensor, t_far: torch.Tensor, n_samples: int, b_near: torch.Tensor, b_far: torch.Tensor,
+                   crosses: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per ray, the window [first, last) of the indices of its unjittered samples (strata centres of [t_near, t_far])
+    that can lie in the ray-parameter interval [b_near, b_far], with one sample of margin at either end against
+    rounding; an empty window where the ray does not ``crosses`` the interval."""
     length = (t_far - t_near).clamp(min=1e-12)
     first = (torch.floor((b_near - t_near) / length * n_samples - 0.5) - 1).clamp(0, n_samples).long()
     last = (torch.ceil((b_far - t_near) / length * n_samples - 0.5) + 2).clamp(0, n_samples).long()
-    last = torch.where(crosses, torch.maximum(last, first), first)
-    width = int((last - first).max()) if len(first) else 0
-    index = first[:, None] + torch.arange(width, device=origins.device)
-    valid = index < last[:, None]
-    t = t_near[:, None] + (t_far - t_near)[:, None] * (index.clamp(max=n_samples - 1).to(t_near.dtype) + 0.5) / n_samples
-    return t, valid
+    return first, torch.where(crosses, torch.maximum(last, first), first)
+
+
+def strata_centres(t_near: torch.Tensor, t_far: torch.Tensor, index: torch.Tensor, n_samples: int) -> torch.Tensor:
+    """The parameter t of sample ``index`` of ``n_samples`` unjittered samples of [t_near, t_far] (broadcasting), in
+    the same floats as ``sample_along_rays`` computes it."""
+    return t_near + (t_far - t_near) * (index.to(t_near.dtype) + 0.5) / n_samples
 
 
 def compositing_weights(occ: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -159,26 +158,56 @@ class SkipGrid:
         kept, so the cell is the cube of one spacing around the vertex, grown by 2 % against rounding; a cube's image
         lies in the box of its corners' images, so no other pixel's ray meets it). None when a kept cell reaches
         behind the camera (its image has no finite box)."""
+        windows = self.ray_windows(intrinsics, pose, depth_bins=1)
+        return None if windows is None else torch.isfinite(windows[0])
+
+    def ray_windows(self, intrinsics: Intrinsics, pose: np.ndarray, depth_bins: int = 16
+                    ) -> tuple[torch.Tensor, torch.Tensor] | None:
+        """Per pixel of a pinhole view at ``pose``, an interval [t_lo, t_hi] (two (H*W,) tensors; inf and -inf where
+        no kept cell is seen) of the parameter t of its ray (``pixel_rays``: t is the camera depth) outside which the
+        ray meets no kept cell. A kept cell (see ``image_footprint``) covers the pixels in the image box of its corners
+        and the depths between its corners' (depth is linear, so a cube's depths lie between its corners'); the
+        kept cells' depths are cut into ``depth_bins`` equal bins, each bin's covered pixels painted at once, and a
+        pixel's interval runs from its first painted bin to its last. None when a kept cell reaches behind the camera."""
         h, w = intrinsics.height, intrinsics.width
-        corners = self._kept_cell_corners
+        corners, device = self._kept_cell_corners, self.keep.device
         if len(corners) == 0:
-            return torch.zeros(h * w, dtype=torch.bool, device=self.keep.device)
-        pose = torch.as_tensor(pose, dtype=torch.float64, device=self.keep.device)
+            return torch.full((h * w,), torch.inf, device=device), torch.full((h * w,), -torch.inf, device=device)
+        pose = torch.as_tensor(pose, dtype=torch.float64, device=device)
         camera = (corners - pose[:3, 3]) @ pose[:3, :3]  # R^T (p - t), (K, 8, 3)
-        if camera[..., 2].min() <= 1e-6:
+        depth = camera[..., 2]
+        if depth.min() <= 1e-6:
             return None
-        u = intrinsics.fx * camera[..., 0] / camera[..., 2] + intrinsics.cx
-        v = intrinsics.fy * camera[..., 1] / camera[..., 2] + intrinsics.cy
+        u = intrinsics.fx * camera[..., 0] / depth + intrinsics.cx
+        v = intrinsics.fy * camera[..., 1] / depth + intrinsics.cy
         # pixel i's centre lies at i + 0.5: the columns i with u_min <= i + 0.5 <= u_max, clipped to the image
         first_col, last_col = torch.ceil(u.amin(1) - 0.5).clamp(0, w), torch.floor(u.amax(1) - 0.5).clamp(-1, w - 1)
         first_row, last_row = torch.ceil(v.amin(1) - 0.5).clamp(0, h), torch.floor(v.amax(1) - 0.5).clamp(-1, h - 1)
+        near, far = depth.amin(1), depth.amax(1)
+        lowest, width = near.min(), (far.max() - near.min()).clamp(min=1e-9) / depth_bins
+        first_bin = ((near - lowest) / width).floor().clamp(0, depth_bins - 1).long()
+        last_bin = ((far - lowest) / width).floor().clamp(0, depth_bins - 1).long()
+        # a cell spans the bins first_bin..last_bin: one box per cell and bin
         some = (first_col <= last_col) & (first_row <= last_row)
-        c0, c1, r0, r1 = (x[some].long() for x in (first_col, last_col, first_row, last_row))
+        spans = (last_bin - first_bin + 1) * some
+        cell = torch.repeat_interleave(torch.arange(len(spans), device=device), spans)
+        bins = first_bin[cell] + torch.arange(len(cell), device=device) - (torch.cumsum(spans, 0) - spans)[cell]
+        c0, c1, r0, r1 = (x[cell].long() for x in (first_col, last_col, first_row, last_row))
         # every box painted at once: +1 at its corner, -1 past its right and lower edges, +1 past both; 2-D cumsum
-        marks = torch.zeros(h + 1, w + 1, dtype=torch.int32, device=self.keep.device)
+        marks = torch.zeros(depth_bins, h + 1, w + 1, dtype=torch.int32, device=device)
         for rr, cc, sign in ((r0, c0, 1), (r0, c1 + 1, -1), (r1 + 1, c0, -1), (r1 + 1, c1 + 1, 1)):
-            marks.index_put_((rr, cc), torch.full_like(rr, sign, dtype=torch.int32), accumulate=True)
-        return (marks.cumsum(0).cumsum(1)[:h, :w] > 0).reshape(-1)
+            marks.index_put_((bins, rr, cc), torch.full_like(rr, sign, dtype=torch.int32), accumulate=True)
+        painted = (marks.cumsum(1).cumsum(2)[:, :h, :w] > 0).reshape(depth_bins, -1)  # (bins, H*W)
+        first = torch.full((h * w,), depth_bins, device=device)  # the first and last painted bin of each pixel
+        last = torch.full((h * w,), -1, device=device)
+        for b in range(depth_bins):
+            first.masked_fill_(painted[depth_bins - 1 - b], depth_bins - 1 - b)
+            last.masked_fill_(painted[b], b)
+        seen = last >= 0
+        edges = lowest + width * torch.arange(depth_bins + 2, device=device, dtype=torch.float64)
+        t_lo = torch.where(seen, edges[first], torch.inf).float()
+        t_hi = torch.where(seen, edges[last + 1], -torch.inf).float()
+        return t_lo, t_hi
 
     def above(self, z_min: float) -> "SkipGrid":
         """This grid without the vertex layers below height ``z_min``."""
@@ -210,33 +239,26 @@ def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: fl
 
 def sample_field(field, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderConfig, n_samples: int | None = None,
                  generator: torch.Generator | None = None, depth: torch.Tensor | None = None,
-                 skip: SkipGrid | None = None, semantics: bool = False, in_box: bool = False) -> dict[str, torch.Tensor]:
+                 skip: SkipGrid | None = None, semantics: bool = False) -> dict[str, torch.Tensor]:
     """Samples along rays and the field's occupancy there: parameters t (R, S), points (R, S, 3), occupancy
     (R, S), zero where the field is not evaluated (outside the cube, or in a cell ``skip`` leaves out), the
     flat mask ``evaluate`` of evaluated samples and their ``located`` corners (``SemanticField.locate``).
     With ``semantics``, also the class logits (R, S, P) of the evaluated samples (zero elsewhere) and their
     colour features ``f_rgb``, from one lookup of the appearance grid. With a measured ``depth`` (training), a ray
-    that hit something is sampled only up to ``cfg.behind_surface`` behind it. With ``in_box`` (unjittered samples and
-    a ``skip`` only), only each ray's samples that can lie in ``skip.box`` are taken (``samples_in_box``):
-    the others would be skipped anyway, so composites over them are those over all samples."""
+    that hit something is sampled only up to ``cfg.behind_surface`` behind it."""
     t_near, t_far, hit = ray_box_intersection(origins, dirs, field.lattice.bound, cfg.near)
     if depth is not None and cfg.behind_surface is not None:
         # a measured depth tells what lies in front of the surface and nothing of what lies behind it: a training
         # ray that hit something ends just behind its surface, so it teaches nothing about the volume beyond
         t_far = torch.where(depth > 0, torch.minimum(t_far, depth + cfg.behind_surface), t_far)
     t_far = torch.where(hit & (t_far > t_near), t_far, t_near + 1e-3)
-    if in_box:
-        if generator is not None or depth is not None or skip is None:
-            raise ValueError("sample_field: in_box needs a skip grid and unjittered samples without a measured depth")
-        t, in_window = samples_in_box(t_near, t_far, n_samples or cfg.n_samples, origins, dirs, skip.box, cfg.near)
-    else:
-        t = sample_along_rays(
-            t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
-            cfg.surface_band,
-        )
+    t = sample_along_rays(
+        t_near, t_far, n_samples or cfg.n_samples, generator, depth, cfg.n_surface_samples if depth is not None else 0,
+        cfg.surface_band,
+    )
     r, s = t.shape
     points = origins[:, None, :] + t[..., None] * dirs[:, None, :]
-    evaluate = hit[:, None] & in_window if in_box else hit[:, None].expand(r, s)
+    evaluate = hit[:, None].expand(r, s)
     if skip is not None:
         evaluate = evaluate & skip.lookup(points)
     evaluate = evaluate.reshape(-1)
@@ -371,60 +393,73 @@ def render_target_views_and_cut(field, intrinsics: Intrinsics, poses: list[np.nd
                                 rays_per_group: int = 2**20) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """``render_target_views`` with ``skip`` and with ``skip.above(z_min)``, from one evaluation of the
     field per sample: the second composite zeroes the samples whose nearest lattice vertex lies below
-    ``z_min``, and colour is evaluated once where either composite's weight matters. Rays outside the kept
-    cells' image footprint (``SkipGrid.image_footprint``) are white in both without further work; the others of
-    a group of poses (about ``rays_per_group`` rays) are rendered together, in chunks. Yields the two images
-    of each pose in turn: only one group's images are held at a time (the paper's 100 test views of 400x400
-    pixels, kept whole, would be 384 MB)."""
+    ``z_min``, and colour is evaluated once where either composite's weight matters. Only the samples that ``skip``
+    keeps are evaluated and composited (a skipped sample has o = 0: its factor 1 - o = 1 leaves every transmittance
+    as it is), and only those in each ray's window (``SkipGrid.ray_windows``) are looked up; a ray with no window is
+    white in both. The poses are taken in groups of about ``rays_per_group`` rays. Yields the two images of each pose
+    in turn: only one group's images are held at a time (the paper's 100 test views of 400x400 pixels, kept whole,
+    would be 384 MB)."""
     group = max(1, rays_per_group // (intrinsics.height * intrinsics.width))
     for start in range(0, len(poses), group):
         yield from zip(*_render_group_and_cut(field, intrinsics, poses[start : start + group], cfg, targets, skip,
                                               z_min, colour_weight_threshold))
 
 
+def _live_rays(skip: SkipGrid, intrinsics: Intrinsics, poses, cfg: RenderConfig):
+    """The rays of ``poses`` that can meet a kept cell, as their rows in the group's pixels, origins, directions and
+    sample windows [first, last) (``window_indices``) of the ``cfg.n_samples`` unjittered samples across the cube."""
+    rows, origins, dirs, t_near, t_far, first, last = [], [], [], [], [], [], []
+    for view, pose in enumerate(poses):
+        o, d = (torch.as_tensor(a, dtype=torch.float32, device=skip.keep.device) for a in pixel_rays(intrinsics, pose))
+        windows = skip.ray_windows(intrinsics, pose)
+        if windows is None:  # a kept cell behind the camera: the kept cells' box bounds every ray instead
+            if skip.box is None:
+                continue
+            windows = ray_box_intersection(o, d, skip.box[1], cfg.near, low=skip.box[0])[:2]
+        row = (windows[1] >= windows[0]).nonzero().squeeze(1)
+        o, d = o[row], d[row]
+        near, far, hit = ray_box_intersection(o, d, skip.lattice.bound, cfg.near)
+        far = torch.where(hit & (far > near), far, near + 1e-3)
+        a, b = window_indices(near, far, cfg.n_samples, windows[0][row], windows[1][row], hit)
+        for parts, value in zip((rows, origins, dirs, t_near, t_far, first, last),
+                                (row + view * len(windows[0]), o, d, near, far, a, b)):
+            parts.append(value)
+    return [torch.cat(parts) if parts else torch.zeros(0, dtype=torch.long) for parts in
+            (rows, origins, dirs, t_near, t_far, first, last)]
+
+
 def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, colour_weight_threshold):
     lattice, h, w = skip.lattice, intrinsics.height, intrinsics.width
-    rays = [[torch.as_tensor(a, dtype=torch.float32, device=field.device) for a in pixel_rays(intrinsics, pose)]
-            for pose in poses]
-    origins, dirs = torch.cat([o for o, _ in rays]), torch.cat([d for _, d in rays])
-    del rays
-    # only the pixels in the kept cells' image footprint can see one; the others are white without further work. A
-    # footprint pixel whose samples all miss the kept cells comes out white too (it evaluates nothing); a view with a
-    # kept cell behind its camera (no footprint) finds its rays by sampling them (rays_through)
-    live = torch.cat([rays_through(skip, o, d, cfg) if f is None else f
-                      for o, d, f in zip(torch.split(origins, h * w), torch.split(dirs, h * w),
-                                         (skip.image_footprint(intrinsics, pose) for pose in poses))])
-    images = torch.ones(2, len(origins), 3, device=field.device)  # the full and the cut composite of every ray
-    rows = live.nonzero().squeeze(1)
-    for chunk in torch.split(rows, cfg.chunk_rays) if len(rows) else ():
-        samples = sample_field(field, origins[chunk], dirs[chunk], cfg, skip=skip, semantics=True, in_box=True)
-        occ = samples["occ"] * is_target(samples["sem_logits"], targets)
-        above = lattice.axis(occ.device)[lattice.nearest_layer(samples["points"][..., 2])] >= z_min
-        weights = [compositing_weights(o_)[0] for o_ in (occ, occ * above)]
+    images = torch.ones(2, len(poses) * h * w, 3, device=field.device)  # the full and the cut composite of every ray
+    rows, origins, dirs, t_near, t_far, first, last = _live_rays(skip, intrinsics, poses, cfg)
+    # consecutive rays in chunks of about chunk_rays x n_samples window samples (RenderConfig.chunk_rays's memory bound)
+    starts = torch.cumsum(last - first, 0) - (last - first)
+    sizes = torch.bincount(starts // (cfg.chunk_rays * cfg.n_samples)).tolist() if len(rows) else []
+    for chunk in (slice(a - n, a) for a, n in zip(np.cumsum(sizes), sizes) if n):
+        counts = last[chunk] - first[chunk]
+        ray = torch.repeat_interleave(torch.arange(len(counts), device=field.device), counts)  # each sample's ray
+        index = first[chunk][ray] + torch.arange(len(ray), device=field.device) - (torch.cumsum(counts, 0) - counts)[ray]
+        t = strata_centres(t_near[chunk][ray], t_far[chunk][ray], index, cfg.n_samples)
+        points = origins[chunk][ray] + t[:, None] * dirs[chunk][ray]
+        kept = skip.lookup(points)
+        ray, points = ray[kept], points[kept]
+        located = field.locate(points)
+        f_rgb, f_sem = field.appearance_at(located)
+        occ = field.occupancy_at(located) * is_target(f_sem, targets)
+        above = lattice.axis(occ.device)[lattice.nearest_layer(points[:, 2])] >= z_min
+        # the kept samples of each ray side by side (their order along the ray kept), padded with o = 0
+        per_ray = torch.bincount(ray, minlength=len(counts))
+        slot = torch.arange(len(ray), device=field.device) - (torch.cumsum(per_ray, 0) - per_ray)[ray]
+        width = int(per_ray.max()) if len(ray) else 0
+        weights = []
+        for o_ in (occ, occ * above):
+            dense = torch.zeros(len(counts), width, device=field.device).index_put_((ray, slot), o_)
+            weights.append(compositing_weights(dense)[0][ray, slot])
         active = ((weights[0] > colour_weight_threshold) | (weights[1] > colour_weight_threshold)) & (
             occ > cfg.colour_min_occupancy)
-        rows = active.view(-1).nonzero().squeeze(1)
-        rgb = sample_appearance(field, samples, active.view(-1))[0]
+        rgb = field.colour_from(f_rgb[active], located.pe[active])
         for image, wt in zip(images, weights):
-            image[chunk] = composite(rgb, rows, wt) + (1.0 - wt.sum(dim=1))[:, None]
+            composited = torch.zeros(len(counts), 3, device=field.device).index_add_(0, ray[active], wt[active, None] * rgb)
+            acc = torch.zeros(len(counts), device=field.device).index_add_(0, ray, wt)
+            image[rows[chunk]] = composited + (1.0 - acc)[:, None]
     return [list(image.clamp(0, 1).view(len(poses), h, w, 3).cpu().numpy()) for image in images]
-
-
-def rays_through(skip: SkipGrid, origins: torch.Tensor, dirs: torch.Tensor, cfg: RenderConfig,
-                 n_samples: int | None = None) -> torch.Tensor:
-    """Which rays (R,) have at least one of their (unjittered) render samples in a cell ``skip`` keeps: the
-    others composite to the background without evaluating the field. Only the rays that cross the box of the kept
-    cells (``SkipGrid.box``) are sampled to find out."""
-    live = torch.zeros(len(origins), dtype=torch.bool, device=origins.device)
-    box = skip.box
-    if box is None:
-        return live
-    _, _, crosses = ray_box_intersection(origins, dirs, box[1], cfg.near, low=box[0])
-    rows = crosses.nonzero().squeeze(1)
-    for chunk in torch.split(rows, cfg.chunk_rays):
-        o, d = origins[chunk], dirs[chunk]
-        t_near, t_far, hit = ray_box_intersection(o, d, skip.lattice.bound, cfg.near)
-        t, in_window = samples_in_box(t_near, torch.where(hit, t_far, t_near + 1e-3), n_samples or cfg.n_samples, o, d,
-                                      box, cfg.near)
-        live[chunk] = hit & (in_window & skip.lookup(o[:, None, :] + t[..., None] * d[:, None, :])).any(dim=1)
-    return live

@@ -130,6 +130,28 @@ def test_evaluation_renders_take_their_samples_per_ray_from_the_eval_config():
     assert any(not np.allclose(a[0], b[0]) for a, b in zip(renders[32], renders[96]))
 
 
+def test_target_renders_match_the_plain_renders_also_where_kept_cells_lie_behind_the_camera():
+    """The evaluation's renders (sample windows per ray, only kept samples composited) are the plain renders of
+    ``render_target_views`` with the skip grid and with its cut, from a hemisphere view and from a camera inside the
+    cube, where a kept cell lies behind the camera and the kept cells' box bounds the rays instead."""
+    from stair_lite.evaluation import GROUND_CUT_Z
+    from stair_lite.geometry import TOP_VIEW, Intrinsics, view_to_pose
+    from stair_lite.rendering import build_skip_grid, render_target_views, render_target_views_and_cut
+
+    preset, scene = get_preset("smoke"), load_scene("scene1")
+    implicit = ImplicitMap.from_preset(preset, seed=0)
+    implicit.integrate(Simulator(scene).render_view(*TOP_VIEW))
+    field, K, cfg = implicit.field, Intrinsics.from_fov().scaled(0.1), preset.render
+    skip = build_skip_grid(field, scene.targets)
+    poses = [view_to_pose(0.6, 0.5), view_to_pose(0.3, 2.0, radius=0.4)]
+    assert skip.ray_windows(K, poses[0]) is not None and skip.ray_windows(K, poses[1]) is None
+    both = list(zip(*render_target_views_and_cut(field, K, poses, cfg, scene.targets, skip, GROUND_CUT_Z)))
+    for combined, grid in zip(both, (skip, skip.above(GROUND_CUT_Z))):
+        for a, b in zip(combined, render_target_views(field, K, poses, cfg, scene.targets, skip=grid)):
+            np.testing.assert_allclose(a, b, atol=1e-5)
+            assert (b < 1).any()  # each view shows a target
+
+
 def small_eval_preset():
     from dataclasses import replace
 

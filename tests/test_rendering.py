@@ -109,48 +109,23 @@ def test_a_ray_reaches_the_cells_in_front_of_its_depth_and_a_miss_crosses_the_cu
     assert reached([1]) == row(9)
 
 
-def test_rays_through_culls_by_the_kept_box_exactly_as_sampling_every_ray():
-    """``rays_through`` samples only the rays that cross the box of the kept cells; the rays it finds are those that
-    sampling every ray finds, also with kept cells at the cube's faces and with none kept."""
-
-
-    from stair_lite.config import RenderConfig
-    from stair_lite.geometry import Intrinsics, pixel_rays, view_to_pose
-    from stair_lite.lattice import Lattice
-    from stair_lite.rendering import SkipGrid, rays_through
-
-    lattice, cfg = Lattice(24), RenderConfig(n_samples=48)
-    k = Intrinsics.from_fov().scaled(0.15)
-    rays = [pixel_rays(k, view_to_pose(el, az)) for el, az in ((0.3, 0.4), (1.2, 2.0), (np.pi / 2, 0.0))]
-    origins = torch.as_tensor(np.concatenate([o for o, _ in rays]), dtype=torch.float32)
-    dirs = torch.as_tensor(np.concatenate([d for _, d in rays]), dtype=torch.float32)
-
-    def every_ray(skip):
-        t_near, t_far, hit = ray_box_intersection(origins, dirs, lattice.bound, cfg.near)
-        t = sample_along_rays(t_near, torch.where(hit, t_far, t_near + 1e-3), cfg.n_samples)
-        return hit & skip.lookup(origins[:, None, :] + t[..., None] * dirs[:, None, :]).any(dim=1)
-
-    keep = torch.zeros(24, 24, 24, dtype=torch.bool)  # [z, y, x]
-    keep[3:6, 10:13, 8:11] = True  # a small block near the ground
-    keep[20:, 0, 23] = True  # a column on an edge of the cube
-    rng = np.random.default_rng(0)
-    scattered = torch.as_tensor(rng.random((24, 24, 24)) < 0.002)
-    for mask in (keep, scattered, torch.zeros_like(keep)):
-        skip = SkipGrid(mask, lattice)
-        found = rays_through(skip, origins, dirs, cfg)
-        assert torch.equal(found, every_ray(skip))
-    assert rays_through(SkipGrid(keep, lattice), origins, dirs, cfg).float().mean() < 0.5  # the box culls
+def kept_samples(skip, origins, dirs, cfg):
+    """Which of every ray's unjittered render samples (R, S) lie in a cell ``skip`` keeps, and their parameters t,
+    found by sampling every ray in full (what the culls and windows below must agree with)."""
+    t_near, t_far, hit = ray_box_intersection(origins, dirs, skip.lattice.bound, cfg.near)
+    t_far = torch.where(hit & (t_far > t_near), t_far, t_near + 1e-3)
+    t = sample_along_rays(t_near, t_far, cfg.n_samples)
+    return hit[:, None] & skip.lookup(origins[:, None, :] + t[..., None] * dirs[:, None, :]), t, t_near, t_far, hit
 
 
 def test_a_kept_cells_image_footprint_holds_every_ray_that_meets_one_and_culls_the_rest():
-    """``SkipGrid.image_footprint`` is conservative: every pixel whose ray has a sample in a kept cell (what
-    ``rays_through`` finds) lies in it, for blocks, scattered cells and cells on the cube's faces, from high, low and
-    top views; it leaves most of the image out for a small block; and it gives up (None) when a kept cell reaches
-    behind the camera."""
+    """``SkipGrid.image_footprint`` is conservative: every pixel whose ray has a sample in a kept cell lies in it, for
+    blocks, scattered cells and cells on the cube's faces, from high, low and top views; it leaves most of the image
+    out for a small block; and it gives up (None) when a kept cell reaches behind the camera."""
     from stair_lite.config import RenderConfig
     from stair_lite.geometry import Intrinsics, pixel_rays, view_to_pose
     from stair_lite.lattice import Lattice
-    from stair_lite.rendering import SkipGrid, rays_through
+    from stair_lite.rendering import SkipGrid
 
     lattice, cfg = Lattice(24), RenderConfig(n_samples=96)
     k = Intrinsics.from_fov().scaled(0.2)
@@ -165,7 +140,7 @@ def test_a_kept_cells_image_footprint_holds_every_ray_that_meets_one_and_culls_t
             pose = view_to_pose(*view)
             o, d = (torch.as_tensor(a, dtype=torch.float32) for a in pixel_rays(k, pose))
             footprint = skip.image_footprint(k, pose)
-            live = rays_through(skip, o, d, cfg)
+            live = kept_samples(skip, o, d, cfg)[0].any(dim=1)
             assert live.any() and torch.all(footprint[live]), view  # a superset of the rays that meet a kept cell
             if mask is block:
                 assert footprint.float().mean() < 0.2, view  # and it culls
@@ -190,29 +165,40 @@ def test_lattice_block_holds_the_vertices_in_a_box():
     assert lattice.block(torch.tensor([0.1, 0.1, 0.1]), torch.tensor([0.15, 0.9, 0.9]))[0] == slice(6, 6)  # none
 
 
-def test_box_windows_hold_every_kept_sample_with_the_same_parameters():
-    """``samples_in_box`` gives, per ray, the samples ``sample_along_rays`` would give (the same floats) over a window
-    that holds every sample a skip grid keeps, so renders over the windows are renders over all samples."""
+def test_ray_windows_hold_every_kept_sample_and_shorten_the_rays():
+    """``SkipGrid.ray_windows`` bounds, per pixel, the depths at which its ray can meet a kept cell: every sample that
+    sampling the whole ray finds in a kept cell lies in the interval and in the sample window ``window_indices``
+    makes of it, and ``strata_centres`` gives those samples the same floats as ``sample_along_rays``; the windows
+    are much shorter than the rays for two blocks apart, and shorter with more depth bins. Intervals that end a
+    bin early (as if a cell were thinner) miss kept samples: the check can fail."""
     from stair_lite.config import RenderConfig
     from stair_lite.geometry import Intrinsics, pixel_rays, view_to_pose
     from stair_lite.lattice import Lattice
-    from stair_lite.rendering import SkipGrid, samples_in_box
+    from stair_lite.rendering import SkipGrid, strata_centres, window_indices
 
     lattice, cfg = Lattice(24), RenderConfig(n_samples=64)
-    keep = torch.zeros(24, 24, 24, dtype=torch.bool)
-    keep[4:9, 6:15, 10:14] = True
+    keep = torch.zeros(24, 24, 24, dtype=torch.bool)  # [z, y, x]
+    keep[4:9, 6:10, 10:14] = True
+    keep[3:6, 15:19, 4:7] = True
     skip = SkipGrid(keep, lattice)
     k = Intrinsics.from_fov().scaled(0.1)
+    missed_by_thinner = 0
     for view in ((0.4, 1.0), (1.3, 4.0), (np.pi / 2, 0.0)):
-        o, d = (torch.as_tensor(a, dtype=torch.float32) for a in pixel_rays(k, view_to_pose(*view)))
-        t_near, t_far, hit = ray_box_intersection(o, d, lattice.bound, cfg.near)
-        t_far = torch.where(hit & (t_far > t_near), t_far, t_near + 1e-3)
-        every = sample_along_rays(t_near, t_far, cfg.n_samples)
-        kept = hit[:, None] & skip.lookup(o[:, None, :] + every[..., None] * d[:, None, :])
-        window, valid = samples_in_box(t_near, t_far, cfg.n_samples, o, d, skip.box, cfg.near)
-        position = torch.searchsorted(every.contiguous(), window.contiguous())  # where each window sample sits
-        assert torch.equal(torch.gather(every, 1, position.clamp(max=cfg.n_samples - 1))[valid], window[valid])
-        in_windows = torch.zeros_like(kept)
-        in_windows.scatter_(1, position.clamp(max=cfg.n_samples - 1), valid)
-        assert not (kept & ~in_windows).any()  # no kept sample outside its ray's window
-        assert valid.shape[1] < cfg.n_samples  # and the windows are shorter than the rays
+        pose = view_to_pose(*view)
+        o, d = (torch.as_tensor(a, dtype=torch.float32) for a in pixel_rays(k, pose))
+        kept, every, t_near, t_far, hit = kept_samples(skip, o, d, cfg)
+        index = torch.arange(cfg.n_samples).expand_as(every)
+        assert torch.equal(strata_centres(t_near[:, None], t_far[:, None], index, cfg.n_samples), every)
+        widths = {}
+        for bins in (1, 16):
+            t_lo, t_hi = skip.ray_windows(k, pose, depth_bins=bins)
+            assert torch.all((every >= t_lo[:, None]) & (every <= t_hi[:, None]) | ~kept), (view, bins)
+            first, last = window_indices(t_near, t_far, cfg.n_samples, t_lo, t_hi, hit & (t_hi >= t_lo))
+            assert not (kept & ((index < first[:, None]) | (index >= last[:, None]))).any(), (view, bins)
+            widths[bins] = (last - first)[kept.any(dim=1)].float().mean()
+        assert widths[16] < widths[1] < 0.6 * cfg.n_samples, view
+        step = (t_hi - t_lo)[torch.isfinite(t_lo)].min()  # the shortest interval (a bin at least): end every one earlier
+        missed_by_thinner += int((kept & (every > (t_hi - step)[:, None])).sum())
+    assert missed_by_thinner > 0
+
+

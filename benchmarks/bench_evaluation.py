@@ -4,7 +4,9 @@ A paper-preset field is trained on three views of scene 1 (a cut schedule: 60 it
 view, as a field is after its first views), then the evaluator's phases are timed: the target skip grid, the target-only
 renders of the test views (100 at 400 x 400 at the paper preset), the target mesh (a 256^3 lattice) and its surface
 samples (1e6), and the nearest-distance scores, both with scipy's default KD-tree and with ``evaluation.point_tree``
-(the same distances; the figure is the ratio). Medians over ``--repeats``.
+(the same distances; the figure is the ratio). Medians over ``--repeats``. For the renders, also what they sample: the
+live rays per view, the window samples and kept samples per live ray (``rendering.live_rays``, ``kept_window_samples``),
+and the time of reading the field at the kept samples of five views (what no cull of samples removes).
 
 Run: .venv/bin/python benchmarks/bench_evaluation.py [--repeats 3] [--views 100] [--preset paper]
 """
@@ -14,6 +16,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
+import torch
 from scipy.spatial import cKDTree
 
 import stair_lite  # noqa: F401
@@ -22,6 +25,7 @@ from stair_lite.evaluation import GROUND_CUT_Z, mesh_scores_from_points, point_t
 from stair_lite.geometry import TOP_VIEW, fibonacci_hemisphere
 from stair_lite.maps import IMPLICIT
 from stair_lite.mission import World, build_map
+from stair_lite.rendering import kept_window_samples, live_rays
 
 
 def timed(fn, repeats: int):
@@ -57,6 +61,22 @@ def main():
     t_skip, _ = timed(lambda: implicit.target_skip_grid(targets), 1)
     t_render, _ = timed(lambda: list(implicit.target_only_renders(evaluator.intrinsics, poses, targets, GROUND_CUT_Z)),
                         args.repeats)
+    skip = implicit.target_skip_grid(targets)
+    render_cfg = replace(implicit.trainer.render_cfg, n_samples=preset.eval.render_samples)
+    sampled = [live_rays(skip, evaluator.intrinsics, [pose], render_cfg) for pose in poses[:5]]
+    kept = [kept_window_samples(skip, *rays[1:], render_cfg.n_samples)[1] for rays in sampled]
+    n_live = sum(len(rays[0]) for rays in sampled)
+    field = implicit.field
+
+    @torch.no_grad()
+    def read_field():
+        for points in kept:
+            located = field.locate(points)
+            field.occupancy_at(located), field.appearance_at(located)
+
+    t_read, _ = timed(read_field, args.repeats)
+    t_five, _ = timed(lambda: list(implicit.target_only_renders(evaluator.intrinsics, poses[:5], targets, GROUND_CUT_Z)),
+                      args.repeats)
     t_mesh, mesh = timed(lambda: implicit.target_mesh(targets), args.repeats)
     n, seed = preset.eval.mesh_points, evaluator.seed + 1
     t_sample, pred = timed(lambda: sample_surface(mesh, n, seed), args.repeats)
@@ -76,6 +96,11 @@ def main():
     print(f"  target skip grid                 {t_skip:7.2f} s (once per field state)")
     print(f"  target-only renders, {len(poses):3d} views     {t_render:7.2f} s ({cfg.image_scale:g} x 400 px, "
           f"{cfg.render_samples} samples per ray)")
+    pixels = evaluator.intrinsics.height * evaluator.intrinsics.width
+    print(f"    live rays per view {n_live / len(sampled):.0f} of {pixels}; per live ray "
+          f"{sum(int((r[-1] - r[-2]).sum()) for r in sampled) / n_live:.1f} window samples, "
+          f"{sum(len(k) for k in kept) / n_live:.1f} in kept cells")
+    print(f"    reading the field at the kept samples of {len(kept)} views {t_read:.2f} s of their renders' {t_five:.2f} s")
     print(f"  target mesh ({cfg.mesh_resolution}^3 lattice)       {t_mesh:7.2f} s")
     print(f"  surface samples ({n:.0e})         {t_sample:7.2f} s")
     print(f"  nearest distances, scipy default {t_default:7.2f} s")

@@ -405,7 +405,7 @@ def render_target_views_and_cut(field, intrinsics: Intrinsics, poses: list[np.nd
                                               z_min, colour_weight_threshold))
 
 
-def _live_rays(skip: SkipGrid, intrinsics: Intrinsics, poses, cfg: RenderConfig):
+def live_rays(skip: SkipGrid, intrinsics: Intrinsics, poses, cfg: RenderConfig):
     """The rays of ``poses`` that can meet a kept cell, as their rows in the group's pixels, origins, directions and
     sample windows [first, last) (``window_indices``) of the ``cfg.n_samples`` unjittered samples across the cube."""
     rows, origins, dirs, t_near, t_far, first, last = [], [], [], [], [], [], []
@@ -428,38 +428,46 @@ def _live_rays(skip: SkipGrid, intrinsics: Intrinsics, poses, cfg: RenderConfig)
             (rows, origins, dirs, t_near, t_far, first, last)]
 
 
+def kept_window_samples(skip: SkipGrid, origins, dirs, t_near, t_far, first, last, n_samples: int):
+    """The samples of each ray's window [first, last) (``window_indices``, rays as ``live_rays`` gives them) that lie
+    in a kept cell: their ray (an index into the rays given, ascending, each ray's samples in order along it) and
+    their points (K, 3), at the parameters ``strata_centres`` gives (the floats of ``sample_along_rays``)."""
+    counts = last - first
+    ray = torch.repeat_interleave(torch.arange(len(counts), device=origins.device), counts)
+    index = first[ray] + torch.arange(len(ray), device=origins.device) - (torch.cumsum(counts, 0) - counts)[ray]
+    points = origins[ray] + strata_centres(t_near[ray], t_far[ray], index, n_samples)[:, None] * dirs[ray]
+    kept = skip.lookup(points)
+    return ray[kept], points[kept]
+
+
 def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, colour_weight_threshold):
     lattice, h, w = skip.lattice, intrinsics.height, intrinsics.width
     images = torch.ones(2, len(poses) * h * w, 3, device=field.device)  # the full and the cut composite of every ray
-    rows, origins, dirs, t_near, t_far, first, last = _live_rays(skip, intrinsics, poses, cfg)
+    rows, *rays = live_rays(skip, intrinsics, poses, cfg)
     # consecutive rays in chunks of about chunk_rays x n_samples window samples (RenderConfig.chunk_rays's memory bound)
-    starts = torch.cumsum(last - first, 0) - (last - first)
-    sizes = torch.bincount(starts // (cfg.chunk_rays * cfg.n_samples)).tolist() if len(rows) else []
+    counts = rays[-1] - rays[-2]
+    sizes = torch.bincount((torch.cumsum(counts, 0) - counts) // (cfg.chunk_rays * cfg.n_samples)).tolist() \
+        if len(rows) else []
     for chunk in (slice(a - n, a) for a, n in zip(np.cumsum(sizes), sizes) if n):
-        counts = last[chunk] - first[chunk]
-        ray = torch.repeat_interleave(torch.arange(len(counts), device=field.device), counts)  # each sample's ray
-        index = first[chunk][ray] + torch.arange(len(ray), device=field.device) - (torch.cumsum(counts, 0) - counts)[ray]
-        t = strata_centres(t_near[chunk][ray], t_far[chunk][ray], index, cfg.n_samples)
-        points = origins[chunk][ray] + t[:, None] * dirs[chunk][ray]
-        kept = skip.lookup(points)
-        ray, points = ray[kept], points[kept]
+        n_rays = chunk.stop - chunk.start
+        ray, points = kept_window_samples(skip, *(x[chunk] for x in rays), cfg.n_samples)
         located = field.locate(points)
         f_rgb, f_sem = field.appearance_at(located)
         occ = field.occupancy_at(located) * is_target(f_sem, targets)
         above = lattice.axis(occ.device)[lattice.nearest_layer(points[:, 2])] >= z_min
         # the kept samples of each ray side by side (their order along the ray kept), padded with o = 0
-        per_ray = torch.bincount(ray, minlength=len(counts))
+        per_ray = torch.bincount(ray, minlength=n_rays)
         slot = torch.arange(len(ray), device=field.device) - (torch.cumsum(per_ray, 0) - per_ray)[ray]
         width = int(per_ray.max()) if len(ray) else 0
         weights = []
         for o_ in (occ, occ * above):
-            dense = torch.zeros(len(counts), width, device=field.device).index_put_((ray, slot), o_)
+            dense = torch.zeros(n_rays, width, device=field.device).index_put_((ray, slot), o_)
             weights.append(compositing_weights(dense)[0][ray, slot])
         active = ((weights[0] > colour_weight_threshold) | (weights[1] > colour_weight_threshold)) & (
             occ > cfg.colour_min_occupancy)
         rgb = field.colour_from(f_rgb[active], located.pe[active])
         for image, wt in zip(images, weights):
-            composited = torch.zeros(len(counts), 3, device=field.device).index_add_(0, ray[active], wt[active, None] * rgb)
-            acc = torch.zeros(len(counts), device=field.device).index_add_(0, ray, wt)
+            composited = torch.zeros(n_rays, 3, device=field.device).index_add_(0, ray[active], wt[active, None] * rgb)
+            acc = torch.zeros(n_rays, device=field.device).index_add_(0, ray, wt)
             image[rows[chunk]] = composited + (1.0 - acc)[:, None]
     return [list(image.clamp(0, 1).view(len(poses), h, w, 3).cpu().numpy()) for image in images]

@@ -193,20 +193,27 @@ class SkipGrid:
         cell = torch.repeat_interleave(torch.arange(len(spans), device=device), spans)
         bins = first_bin[cell] + torch.arange(len(cell), device=device) - (torch.cumsum(spans, 0) - spans)[cell]
         c0, c1, r0, r1 = (x[cell].long() for x in (first_col, last_col, first_row, last_row))
-        # every box painted at once: +1 at its corner, -1 past its right and lower edges, +1 past both; 2-D cumsum
-        marks = torch.zeros(depth_bins, h + 1, w + 1, dtype=torch.int32, device=device)
+        t_lo = torch.full((h, w), torch.inf, device=device)
+        t_hi = torch.full((h, w), -torch.inf, device=device)
+        if len(cell) == 0:
+            return t_lo.view(-1), t_hi.view(-1)
+        # every box painted at once, in the image region the boxes cover: +1 at its corner, -1 past its right and lower
+        # edges, +1 past both; a 2-D cumsum
+        top, left, bottom, right = int(r0.min()), int(c0.min()), int(r1.max()) + 1, int(c1.max()) + 1
+        marks = torch.zeros(depth_bins, bottom - top + 1, right - left + 1, dtype=torch.int32, device=device)
         for rr, cc, sign in ((r0, c0, 1), (r0, c1 + 1, -1), (r1 + 1, c0, -1), (r1 + 1, c1 + 1, 1)):
-            marks.index_put_((bins, rr, cc), torch.full_like(rr, sign, dtype=torch.int32), accumulate=True)
-        painted = (marks.cumsum(1).cumsum(2)[:, :h, :w] > 0).reshape(depth_bins, -1)  # (bins, H*W)
-        first = torch.full((h * w,), depth_bins, device=device)  # the first and last painted bin of each pixel
-        last = torch.full((h * w,), -1, device=device)
+            marks.index_put_((bins, rr - top, cc - left), torch.full_like(rr, sign, dtype=torch.int32), accumulate=True)
+        painted = marks.cumsum(1).cumsum(2)[:, :-1, :-1] > 0  # (bins, rows, columns of the region)
+        first = torch.full(painted.shape[1:], depth_bins, device=device)  # each pixel's first and last painted bin
+        last = torch.full(painted.shape[1:], -1, device=device)
         for b in range(depth_bins):
             first.masked_fill_(painted[depth_bins - 1 - b], depth_bins - 1 - b)
             last.masked_fill_(painted[b], b)
         seen = last >= 0
         edges = lowest + width * torch.arange(depth_bins + 2, device=device, dtype=torch.float64)
-        t_lo = torch.where(seen, edges[first], torch.inf).float()
-        t_hi = torch.where(seen, edges[last + 1], -torch.inf).float()
+        t_lo[top:bottom, left:right] = torch.where(seen, edges[first], torch.inf).float()
+        t_hi[top:bottom, left:right] = torch.where(seen, edges[last + 1], -torch.inf).float()
+        t_lo, t_hi = t_lo.view(-1), t_hi.view(-1)
         return t_lo, t_hi
 
     def above(self, z_min: float) -> "SkipGrid":

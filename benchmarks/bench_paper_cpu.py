@@ -3,9 +3,12 @@
 samples, from the field snapshot), one planning step (the two-stage search over 200 candidates), and
 the process's peak memory. A measurement of the authors' code on a 2-core CPU (an external figure, not
 reproduced here) gave 1.40 s per iteration, 0.42 s per candidate render, about 100 s per planning step
-and 1.9 GB; the README quotes it with its conditions.
+and 1.9 GB; the README quotes it with its conditions. With ``--evaluate``, also the paper's evaluation of the
+field and one whole mission step (planning, the preset's iterations, evaluation) against the authors' step without
+any evaluation, from their code measured beside ours on this machine (the speed issue: 1.17 s per 8000-ray
+iteration and 0.41 s per candidate render in their planner's batched call; 200 of each: about 316 s).
 
-Run: .venv/bin/python benchmarks/bench_paper_cpu.py [--repeats 3] [--planning-steps 1]
+Run: .venv/bin/python benchmarks/bench_paper_cpu.py [--repeats 3] [--planning-steps 1] [--evaluate]
      .venv/bin/python benchmarks/bench_paper_cpu.py --mission [--budget 10] [--iterations 5]
 With ``--mission``: instead, one whole paper-preset STAIR mission (planning, training and the paper's
 evaluation after every step: 100 test views at 400x400, a 256^3 mesh lattice, 1e6 points per mesh) on a cut
@@ -27,6 +30,10 @@ from stair_lite.mission import Mission, MissionConfig, World, build_map
 from stair_lite.planners import make_planner
 from stair_lite.utility import FieldSnapshot, score_views
 
+# the authors' code (dmar-bonn/stair, unmodified) measured beside ours on this machine: seconds per 8000-ray training
+# iteration and per candidate render in their planner's batched call; a step trains 200 iterations and renders 200
+AUTHORS_ITERATION_S, AUTHORS_CANDIDATE_S = 1.17, 0.41
+
 
 def main():
     parser = argparse.ArgumentParser()
@@ -34,6 +41,7 @@ def main():
     parser.add_argument("--planning-steps", type=int, default=1)
     parser.add_argument("--scene", default="scene1")
     parser.add_argument("--mission", action="store_true", help="measure one whole mission's peak memory instead")
+    parser.add_argument("--evaluate", action="store_true", help="also the paper's evaluation and a whole mission step")
     parser.add_argument("--budget", type=int, default=10, help="(--mission) measurements")
     parser.add_argument("--iterations", type=int, default=5, help="(--mission) training iterations per view")
     args = parser.parse_args()
@@ -92,6 +100,17 @@ def main():
     if steps:
         print(f"one planning step ({len(decision.candidates)} candidates): median {statistics.median(steps):.1f} s "
               f"over {args.planning_steps}")
+    if args.evaluate and steps:
+        start = time.perf_counter()
+        result = world.evaluator.evaluate(implicit)
+        t_eval = time.perf_counter() - start
+        iteration = statistics.median(times)
+        step = statistics.median(steps) + tc.iterations_per_view * iteration + t_eval
+        authors = tc.iterations_per_view * AUTHORS_ITERATION_S + len(decision.candidates) * AUTHORS_CANDIDATE_S
+        print(f"the paper's evaluation of this field (PSNR {result['psnr']:.2f} dB, F1 {result['f1']:.3f}): {t_eval:.1f} s")
+        print(f"one mission step: planning {statistics.median(steps):.1f} s + {tc.iterations_per_view} iterations x "
+              f"{iteration:.2f} s + evaluation {t_eval:.1f} s = {step:.0f} s; the authors' step without evaluation "
+              f"{authors:.0f} s: {step / authors:.2f} of it (target 0.2)")
     print(f"peak resident memory: {peak_gb():.2f} GB (after training: {peak_after_training:.2f} GB)")
 
 

@@ -5,9 +5,8 @@ The study (``scripts/label_noise_sweep.sh``) runs STAIR, STAIR with the semantic
 the four paper scenes at label noise none, low and high (``segmenter.LABEL_NOISE``), one folder per level.
 At level none the paper's variants are the missions of the comparison of the same map (the same missions: exact
 labels). A study is named by its folders' suffix: ``label_noise_<level>_<study>`` and ``comparison_<study>``.
-``STORED_STUDY`` is ``lite_former``: the study ran with lite's map before the headroom league (unknown space unmarked in
-planning, the voxel map at 128^3); its re-run at the adopted lite (``scripts/label_noise_sweep.sh``) fills the
-``*_lite`` folders.
+``STORED_STUDY`` is ``lite``: the study on the adopted lite map (the unknown marked in planning renders); the study on
+the map before the headroom league (unknown space unmarked, the voxel map at 128^3) is ``lite_former``.
 
 Each utility variant is compared with STAIR as ``claims`` compares planners: per-seed means over the steps,
 a paired t-test at ``claims.ALPHA``; per scene, and pooled over the scenes (pairs of the same scene and seed).
@@ -31,7 +30,7 @@ VARIANTS = ("stair", "stair_semantic", "stair_soft", "exploration", "max_distanc
 AGAINST_STAIR = ("stair_semantic", "stair_soft")  # the utilities beyond the paper, each against the paper's
 BASELINES = ("exploration", "max_distance")  # semantics-blind: STAIR is compared against each
 METRICS = ("psnr", "f1")
-STORED_STUDY = "lite_former"  # the study whose verdicts RESULTS.md and notebook 07 quote
+STORED_STUDY = "lite"  # the study whose verdicts RESULTS.md and notebook 07 quote
 WORDS = {"holds": "helps", "reversed": "hurts", "not significant": "no significant difference"}
 STAIR_WORDS = {"holds": "STAIR better", "reversed": "STAIR worse", "not significant": "no significant difference"}
 

@@ -144,7 +144,7 @@ class SkipGrid:
     @cached_property
     def _kept_cell_corners(self) -> torch.Tensor:
         """The 8 corners (K, 8, 3) of each kept vertex's cell (the cube of one spacing around it, grown by 2 % against
-        rounding), in float64; computed once, for every view's ``image_footprint``."""
+        rounding), in float64; computed once, for every view's ``ray_windows``."""
         rows = self.keep.nonzero().squeeze(1)
         r, axis = self.lattice.resolution, self.lattice.axis(self.keep.device).double()
         centres = torch.stack([axis[rows % r], axis[(rows // r) % r], axis[rows // (r * r)]], dim=1)
@@ -152,23 +152,16 @@ class SkipGrid:
                              device=self.keep.device)
         return centres[:, None, :] + 0.51 * self.lattice.spacing * signs
 
-    def image_footprint(self, intrinsics: Intrinsics, pose: np.ndarray) -> torch.Tensor | None:
-        """Which pixels (H*W,) of a pinhole view at ``pose`` can have a ray through a kept cell: those whose centre lies
-        in the image box of a kept cell's 8 projected corners (a point is in a kept cell when its nearest vertex is
-        kept, so the cell is the cube of one spacing around the vertex, grown by 2 % against rounding; a cube's image
-        lies in the box of its corners' images, so no other pixel's ray meets it). None when a kept cell reaches
-        behind the camera (its image has no finite box)."""
-        windows = self.ray_windows(intrinsics, pose, depth_bins=1)
-        return None if windows is None else torch.isfinite(windows[0])
-
     def ray_windows(self, intrinsics: Intrinsics, pose: np.ndarray, depth_bins: int = 16
                     ) -> tuple[torch.Tensor, torch.Tensor] | None:
         """Per pixel of a pinhole view at ``pose``, an interval [t_lo, t_hi] (two (H*W,) tensors; inf and -inf where
         no kept cell is seen) of the parameter t of its ray (``pixel_rays``: t is the camera depth) outside which the
-        ray meets no kept cell. A kept cell (see ``image_footprint``) covers the pixels in the image box of its corners
-        and the depths between its corners' (depth is linear, so a cube's depths lie between its corners'); the
-        kept cells' depths are cut into ``depth_bins`` equal bins, each bin's covered pixels painted at once, and a
-        pixel's interval runs from its first painted bin to its last. None when a kept cell reaches behind the camera."""
+        ray meets no kept cell. A point is in a kept cell when its nearest vertex is kept, so the cell is the cube of
+        one spacing around the vertex (grown by 2 % against rounding); a cube's image lies in the box of its corners'
+        images and its depths between its corners' (depth is linear), so it covers only the pixels whose centre lies in
+        that box, at those depths. The kept cells' depths are cut into ``depth_bins`` equal bins, each bin's covered
+        pixels painted at once, and a pixel's interval runs from its first painted bin to its last (with one bin, the
+        pixels with an interval are the kept cells' image footprint). None when a kept cell reaches behind the camera."""
         h, w = intrinsics.height, intrinsics.width
         corners, device = self._kept_cell_corners, self.keep.device
         if len(corners) == 0:
@@ -213,8 +206,7 @@ class SkipGrid:
         edges = lowest + width * torch.arange(depth_bins + 2, device=device, dtype=torch.float64)
         t_lo[top:bottom, left:right] = torch.where(seen, edges[first], torch.inf).float()
         t_hi[top:bottom, left:right] = torch.where(seen, edges[last + 1], -torch.inf).float()
-        t_lo, t_hi = t_lo.view(-1), t_hi.view(-1)
-        return t_lo, t_hi
+        return t_lo.view(-1), t_hi.view(-1)
 
     def above(self, z_min: float) -> "SkipGrid":
         """This grid without the vertex layers below height ``z_min``."""

@@ -119,7 +119,8 @@ def kept_samples(skip, origins, dirs, cfg):
 
 
 def test_a_kept_cells_image_footprint_holds_every_ray_that_meets_one_and_culls_the_rest():
-    """``SkipGrid.image_footprint`` is conservative: every pixel whose ray has a sample in a kept cell lies in it, for
+    """The pixels with a window (``SkipGrid.ray_windows`` with one depth bin: the kept cells' image footprint) are
+    conservative: every pixel whose ray has a sample in a kept cell lies among them, for
     blocks, scattered cells and cells on the cube's faces, from high, low and top views; it leaves most of the image
     out for a small block; and it gives up (None) when a kept cell reaches behind the camera."""
     from stair_lite.config import RenderConfig
@@ -139,15 +140,15 @@ def test_a_kept_cells_image_footprint_holds_every_ray_that_meets_one_and_culls_t
         for view in ((0.3, 0.4), (1.2, 2.0), (np.pi / 2, 0.0), (0.05, 5.0)):
             pose = view_to_pose(*view)
             o, d = (torch.as_tensor(a, dtype=torch.float32) for a in pixel_rays(k, pose))
-            footprint = skip.image_footprint(k, pose)
+            footprint = torch.isfinite(skip.ray_windows(k, pose, depth_bins=1)[0])
             live = kept_samples(skip, o, d, cfg)[0].any(dim=1)
             assert live.any() and torch.all(footprint[live]), view  # a superset of the rays that meet a kept cell
             if mask is block:
                 assert footprint.float().mean() < 0.2, view  # and it culls
     edge = torch.zeros(24, 24, 24, dtype=torch.bool)
     edge[20:, 12, 23] = True  # cells at the cube's face x = 1.5, high up
-    assert SkipGrid(edge, lattice).image_footprint(k, view_to_pose(np.pi / 4, 0.0)) is None  # behind the camera
-    assert not SkipGrid(torch.zeros_like(edge), lattice).image_footprint(k, view_to_pose(0.5, 0.0)).any()
+    assert SkipGrid(edge, lattice).ray_windows(k, view_to_pose(np.pi / 4, 0.0)) is None  # behind the camera
+    assert not torch.isfinite(SkipGrid(torch.zeros_like(edge), lattice).ray_windows(k, view_to_pose(0.5, 0.0))[0]).any()
 
 
 def test_lattice_block_holds_the_vertices_in_a_box():

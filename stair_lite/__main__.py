@@ -7,6 +7,7 @@
   sweep    missions over scenes x planner variants x seeds (resumable), then the results table and plots
   report   the results table, curves and summary of a sweep folder
   claims   the paper's three claims, checked against a sweep (and an ablation) folder, as Markdown
+  scale-claims  the claims at lite beside the paper scale (comparison_lite, comparison_paper), as Markdown
   headroom does a utility predict what a view will teach? realised gains of spread next views, rank correlations
 """
 from __future__ import annotations
@@ -279,6 +280,13 @@ def _cmd_label_noise_claims(args):
     return 0
 
 
+def _cmd_scale_claims(args):
+    from .scale_study import markdown_report, scale_rows
+
+    print(markdown_report(scale_rows(Path(args.results), log=_warn)))
+    return 0
+
+
 def _cmd_headroom(args):
     import matplotlib
 
@@ -467,6 +475,9 @@ def main(argv=None):
     p.add_argument("--study", default=None, help="the folders' suffix (default: the study RESULTS.md quotes, "
                    "noise_study.STORED_STUDY; lite: the re-run at the adopted lite)")
     p.set_defaults(func=_cmd_label_noise_claims)
+    p = sub.add_parser("scale-claims", help="which claim verdicts change from lite to the paper scale (Markdown)")
+    p.add_argument("--results", default="data/results", help="the folder of comparison_lite and comparison_paper")
+    p.set_defaults(func=_cmd_scale_claims)
     args = parser.parse_args(argv)
     try:
         return args.func(args) or 0

@@ -90,3 +90,13 @@ def test_each_stored_results_table_holds_every_mission_of_its_folder():
         assert sorted(map(key, table)) == sorted(map(key, rows)), name
         stored = {key(r): (r["psnr"], r["f1"]) for r in rows}
         assert all(abs(r["psnr"] - stored[key(r)][0]) < 1e-9 and abs(r["f1"] - stored[key(r)][1]) < 1e-9 for r in table)
+
+
+def test_results_md_quotes_the_scale_verdicts():
+    from stair_lite.scale_study import markdown_report as scale_report, scale_rows
+
+    begin, end = "<!-- scale: generated", "<!-- scale: end -->"
+    text = RESULTS_MD.read_text()
+    quoted = text[text.index(begin):text.index(end)].split("\n", 1)[1].rstrip("\n")
+    computed = scale_report(scale_rows(RESULTS_DIR, log=lambda message: None)).rstrip("\n")
+    assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite scale-claims`"

@@ -67,3 +67,18 @@ def test_claims_run_on_a_study_without_uniform_and_the_cross_validation_variants
     assert two["mapping"] == two["planning"] == [] and len(two["overall"]) == 4
     report = claims_report(rows)
     assert "**mapping** (the same STE views on the implicit vs the explicit map): not run in this study" in report
+
+
+def test_the_scale_figure_sets_both_scales_side_by_side():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from stair_lite.figures.comparison import plot_scale_differences
+
+    lite = study(LITE, seeds=8)
+    entries = side_by_side({"lite": lite, "paper": study({**LITE, "stair": 18.5}, seeds=3, seed=1)})
+    fig = plot_scale_differences(entries, ("psnr", "f1"))
+    assert len(fig.axes) == 4  # two claims x two metrics
+    first = fig.axes[0]  # claim (i), psnr: per scene (and pooled) a hollow lite point left of a filled paper point
+    assert [t.get_text() for t in first.get_xticklabels()] == ["scene1", "scene4", "all scenes"]
+    assert len(first.lines) >= 6

@@ -31,3 +31,36 @@ def plot_claim_differences(claims: dict[str, list], metrics: tuple[str, ...]):
     fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     return fig
+
+
+def plot_scale_differences(entries: list[dict], metrics: tuple[str, ...],
+                           columns: dict[str, str] | None = None):
+    """``scale_study.side_by_side``'s entries: one row per claim, one panel per metric; per scene (and pooled) the
+    mean paired difference with its 95 % confidence interval at each scale side by side (hollow: lite over the
+    paper study's seeds; filled: the paper scale), coloured by the verdict; up is better for the claimed side."""
+    columns = columns or {"lite, the paper study's seeds": "lite_same", "paper scale": "paper"}
+    claims = sorted({e["claim"] for e in entries})
+    fig, axes = plt.subplots(len(claims), len(metrics), figsize=(3.6 * len(metrics), 2.6 * len(claims)), squeeze=False)
+    for row, claim in zip(axes, claims):
+        for ax, metric in zip(row, metrics):
+            mine = [e for e in entries if (e["claim"], e["metric"]) == (claim, metric)]
+            for x, e in enumerate(mine):
+                for k, column in enumerate(columns.values()):
+                    c = e[column]
+                    low, high = c.interval()
+                    colour = VERDICT_COLOURS[c.verdict]
+                    ax.errorbar(x + 0.3 * (k - 0.5), c.difference, yerr=[[c.difference - low], [high - c.difference]],
+                                fmt="o", capsize=3, color=colour, mfc=colour if k else "white")
+            ax.axhline(0, color="k", lw=0.8)
+            ax.set_xticks(range(len(mine)), [e["scene"] for e in mine], fontsize=7)
+            if METRICS[metric].lower_is_better:
+                ax.invert_yaxis()
+            ax.set_title(f"claim {claim}: {METRICS[metric].label}", fontsize=8)
+            ax.grid(axis="y", alpha=0.3)
+        row[0].set_ylabel("claimed minus other", fontsize=8)
+    handles = [plt.Line2D([], [], marker="o", ls="", color=c, label=v) for v, c in VERDICT_COLOURS.items()]
+    handles += [plt.Line2D([], [], marker="o", ls="", color="k", mfc=("white" if k == 0 else "k"), label=name)
+                for k, name in enumerate(columns)]
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8)
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    return fig

@@ -111,13 +111,33 @@ def f1_score(precision: float, completeness: float) -> float:
     return 0.0 if precision + completeness == 0 else 2 * precision * completeness / (precision + completeness)
 
 
+def spatial_order(points: np.ndarray, cell: float = 0.02) -> np.ndarray:
+    """A permutation that lists the points cell by cell of a grid of ``cell`` [m] (along x, then y, then z). Surface
+    samples come in random order; nearest-neighbour queries taken in this order visit the same tree nodes one after
+    another, which stay in the CPU's cache (on the 1e6 samples of a paper-preset evaluation about 3x faster)."""
+    cells = np.floor((points - points.min(axis=0)) / cell).astype(np.int64)
+    return np.lexsort((cells[:, 0], cells[:, 1], cells[:, 2]))
+
+
 def point_tree(points: np.ndarray) -> cKDTree:
-    """A KD-tree for nearest-neighbour distances between surface samples. scipy's defaults (balanced splits at the
+    """A KD-tree for nearest-neighbour distances between surface samples, built on the points in ``spatial_order``
+    (its leaves' points then lie together in memory). scipy's defaults (balanced splits at the
     median, node boxes shrunk to their points, 16 points per leaf) make a query slow when its nearest sample is far
     away, as it is for the ground truth's points on sides a map has not yet reconstructed: on a paper-preset map after
     three views, 0.8 ms per query against 0.03 ms with sliding-midpoint splits, unshrunk boxes and 64 points per leaf
-    (benchmarks/bench_evaluation.py). The nearest distances are the same: only the search differs."""
-    return cKDTree(points, leafsize=64, compact_nodes=False, balanced_tree=False)
+    (benchmarks/bench_evaluation.py). The nearest distances are the same: only the search differs. The tree's indices
+    refer to the points in spatial order: use it for distances."""
+    return cKDTree(points[spatial_order(points)], leafsize=64, compact_nodes=False, balanced_tree=False)
+
+
+def nearest_distances(tree: cKDTree, queries: np.ndarray) -> np.ndarray:
+    """The distance from each query point to its nearest point in ``tree``, in the queries' order (they are
+    queried in ``spatial_order``: the same distances, faster)."""
+    distances = np.empty(len(queries))
+    if len(queries):
+        order = spatial_order(queries)
+        distances[order] = tree.query(queries[order], workers=-1)[0]
+    return distances
 
 
 def mesh_scores_from_points(pred_points: np.ndarray, gt_tree: cKDTree, gt_points: np.ndarray, threshold: float,
@@ -126,8 +146,8 @@ def mesh_scores_from_points(pred_points: np.ndarray, gt_tree: cKDTree, gt_points
     F1 also at ``more_thresholds`` (the distances are computed once)."""
     if len(pred_points) == 0:
         return MeshScores(0.0, 0.0, 0.0, 1.0, dict.fromkeys(more_thresholds, 0.0))
-    d_pred, _ = gt_tree.query(pred_points, workers=-1)
-    d_gt, _ = point_tree(pred_points).query(gt_points, workers=-1)
+    d_pred = nearest_distances(gt_tree, pred_points)
+    d_gt = nearest_distances(point_tree(pred_points), gt_points)
     precision, completeness = float(np.mean(d_pred < threshold)), float(np.mean(d_gt < threshold))
     f1_at = {t: f1_score(float(np.mean(d_pred < t)), float(np.mean(d_gt < t))) for t in more_thresholds}
     return MeshScores(precision, completeness, f1_score(precision, completeness), float((d_pred.mean() + d_gt.mean()) / 2), f1_at)

@@ -124,9 +124,9 @@ def markdown_report(by_scale: dict[str, list[dict]]) -> str:
     state = ", ".join(f"{scene} seeds {', '.join(map(str, seeds))}" for scene, seeds in paper_seeds.items()) or "none yet"
     lite_shared = [r for r in by_scale["lite"] if r["variant"] in VARIANTS]
     out = ["Missions of the five shared variants (stair, exploration, fixed, max_distance, ste) finished at the paper "
-           f"scale: {_missions(by_scale['paper'])} (whole seeds, every variant finished: {state}); compute "
+           f"scale: {_missions(by_scale['paper'])}; seeds with all five finished: {state}. Compute: "
            f"{core_hours(by_scale['paper']):.1f} core-hours, {60 * core_hours(by_scale['paper']) / max(1, _missions(by_scale['paper'])):.0f} "
-           f"minutes a mission. At lite: {_missions(lite_shared)} missions, {core_hours(lite_shared):.1f} core-hours, "
+           f"minutes a mission; at lite {_missions(lite_shared)} missions, {core_hours(lite_shared):.1f} core-hours, "
            f"{60 * core_hours(lite_shared) / max(1, _missions(lite_shared)):.1f} minutes a mission.", ""]
     entries = side_by_side(by_scale)
     if not entries:

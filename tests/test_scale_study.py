@@ -66,7 +66,10 @@ def test_claims_run_on_a_study_without_uniform_and_the_cross_validation_variants
     two = claim_two(rows)
     assert two["mapping"] == two["planning"] == [] and len(two["overall"]) == 4
     report = claims_report(rows)
-    assert "**mapping** (the same STE views on the implicit vs the explicit map): not run in this study" in report
+    assert ("**mapping** (the same STE views on the implicit vs the explicit map): no scene has ste_implicit and ste "
+            "finished on a shared seed") in report
+    only_stair = claims_report([r for r in rows if r["variant"] == "stair"])
+    assert "No scene has STAIR and an implicit baseline finished" in only_stair
 
 
 def test_the_scale_figure_sets_both_scales_side_by_side():

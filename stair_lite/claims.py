@@ -261,7 +261,7 @@ def markdown_report(rows, ablation_rows=None, sight: dict | None = None) -> str:
            "seeds; the paired difference is over the seeds both sides ran (same field initialisation and first view); "
            f"p from the paired t-test; a verdict needs p < {ALPHA}; lower chamfer is better.", "",
            "### Claim (i): STAIR beats the implicit baselines that ignore semantics", "",
-           *(["STAIR against the strongest baseline (highest mean) per scene and metric: " + _count(one) + ".", "",
+           *(["STAIR against the strongest baseline (best mean: highest, lowest for chamfer) per scene and metric: " + _count(one) + ".", "",
               *_table(one)] if (one := claim_one(rows)) else
              ["No scene has STAIR and an implicit baseline finished on a shared seed (not run, or not finished yet)."]),
            ""]
@@ -274,7 +274,7 @@ def markdown_report(rows, ablation_rows=None, sight: dict | None = None) -> str:
         else:
             out += [f"**{name}** ({explain}): no scene has {' and '.join(CLAIM_TWO_PARTS[name])} finished on a shared "
                     "seed (not run in this study, or not finished yet).", ""]
-    last = max(int(r["step"]) for r in rows)
+    last = max((int(r["step"]) for r in rows), default=0)
     final = claim_two(rows, step=last)
     if final["overall"]:
         out += [f"The same with each seed's value at the last step ({last}) instead of the mean over steps (a map that "

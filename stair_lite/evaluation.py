@@ -112,9 +112,12 @@ def f1_score(precision: float, completeness: float) -> float:
 
 
 def spatial_order(points: np.ndarray, cell: float = 0.02) -> np.ndarray:
-    """A permutation that lists the points cell by cell of a grid of ``cell`` [m] (along x, then y, then z). Surface
-    samples come in random order; nearest-neighbour queries taken in this order visit the same tree nodes one after
-    another, which stay in the CPU's cache (on the 1e6 samples of a paper-preset evaluation about 3x faster)."""
+    """A permutation that lists the points cell by cell of a grid of ``cell`` [m]: layer by layer in z, row by row in
+    y within a layer, along x within a row. Surface samples come in random order; nearest-neighbour queries taken in
+    this order visit the same tree nodes one after another, which stay in the CPU's cache (on the 1e6 samples of a
+    paper-preset evaluation about 3x faster)."""
+    if len(points) == 0:
+        return np.zeros(0, dtype=np.int64)
     cells = np.floor((points - points.min(axis=0)) / cell).astype(np.int64)
     return np.lexsort((cells[:, 0], cells[:, 1], cells[:, 2]))
 

@@ -5,13 +5,21 @@ The paper-scale comparison (``scripts/paper_comparison.sh``, folder ``comparison
 the fixed spiral, Max View Distance and STE on the four paper scenes at the ``paper`` preset (a 128^3 field and
 voxel map, 8000 rays and 200 iterations per view, 100 test views at 400 x 400); the lite comparison
 (``comparison_lite``) ran them with the others at ``lite``. Both are tested as ``claims`` tests a study: per-seed
-means over the steps, paired t-tests at ``claims.ALPHA``. Claim (i) picks STAIR's strongest baseline among the
-baselines *both* studies ran, so the two scales answer the same question; claim (ii) is STAIR against STE (the
-paper-scale study runs no cross-validation variants).
+means over the steps, paired t-tests at ``claims.ALPHA``. Claim (i) compares STAIR at both scales with the same
+baseline per scene and metric, the strongest at lite over all its seeds (among the baselines both studies ran), so a
+column never changes its baseline and three noisy paper-scale seeds do not pick their own; claim (ii) is STAIR against
+STE overall (the paper-scale study runs no cross-validation variants).
 
-Three verdicts stand side by side: lite over all its seeds, lite over the seeds the paper-scale study finished (the
-same number of pairs: a verdict that changes only with fewer seeds is the seeds', not the scale's), and the paper
-scale. A verdict "changes with scale" when the paper scale's differs from lite's over the same seeds.
+Per claim, scene and metric three paired comparisons stand side by side: lite over all its seeds, lite over as many
+seeds as the paper-scale study finished there (the same seed numbers; the two scales' missions are not pairs, as their
+maps differ and their views part after the first step: the column shows what a verdict with that few pairs says at
+lite), and the paper scale. Whether the *effect* changes with scale is a test of its own: Welch's t-test between the
+paired differences at the paper scale and at lite (all seeds). With about 50 such tests at the 5 % level, two or three
+"changes" are expected by chance alone.
+
+Only the scores within a scale are compared: the two presets also evaluate differently (20 test views at 100 x 100 px
+against 100 at 400 x 400, meshes from a 128^3 against a 256^3 lattice, 1e5 against 1e6 surface points), so an
+absolute score at one scale is not the same measurement as at the other.
 """
 from __future__ import annotations
 
@@ -19,13 +27,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .claims import Comparison, claim_one, claim_two, metrics_of, scenes_of
+from scipy import stats
+
+from .claims import ALPHA, Comparison, claim_one, compare, metrics_of, scenes_of, seeds_of
 from .experiments import RESULTS_DIR, collect
 from .metrics import METRICS
 
 SCALES = {"lite": "comparison_lite", "paper": "comparison_paper"}  # scale -> its comparison's folder
 VARIANTS = ("stair", "exploration", "fixed", "max_distance", "ste")  # what the paper-scale study runs
-CLAIMS = {"(i)": "STAIR vs its strongest implicit baseline", "(ii)": "STAIR vs STE"}
+CLAIMS = {"(i)": "STAIR vs the strongest implicit baseline at lite", "(ii)": "STAIR vs STE"}
 SHORT = {"holds": "holds", "reversed": "reversed", "not significant": "n.s."}
 
 
@@ -53,15 +63,10 @@ def restricted(rows: list[dict], seeds: dict[str, list[int]]) -> list[dict]:
     return [r for r in rows if int(r["seed"]) in seeds.get(r["scene"], ())]
 
 
-def verdicts(rows: list[dict]) -> dict[tuple[str, str, str], Comparison]:
-    """(claim, scene, metric) -> the comparison, for claims (i) (among ``VARIANTS``' baselines) and (ii) overall."""
-    out = {("(i)", c.scene, c.metric): c for c in claim_one(rows)}
-    out.update({("(ii)", c.scene, c.metric): c for c in claim_two(rows)["overall"]})
-    return out
-
-
 def pooled(comparisons: list[Comparison]) -> Comparison:
-    """One comparison over every (scene, seed) pair of per-scene comparisons of one claim and metric."""
+    """One paired comparison over every (scene, seed) pair of per-scene comparisons of one claim and metric: each scene
+    weighted by its pairs, its baseline kept ("strongest" where the scenes' differ). The spread between scenes counts as
+    noise, and the pairs' degrees of freedom overstate what a few scenes support: read it beside the per-scene rows."""
     first = comparisons[0]
     others = sorted({c.other for c in comparisons})
     return Comparison("all scenes", first.metric, first.claimed, others[0] if len(others) == 1 else "strongest",
@@ -69,49 +74,83 @@ def pooled(comparisons: list[Comparison]) -> Comparison:
                       np.concatenate([c.other_scores for c in comparisons]))
 
 
-def side_by_side(by_scale: dict[str, list[dict]]) -> list[dict]:
-    """One entry per claim, scene (and "all scenes", pooled) and metric that the paper-scale study can test: the
-    comparison at lite over all its seeds (``lite``), at lite over the paper study's seeds (``lite_same``) and at
-    the paper scale (``paper``)."""
-    paper_seeds = seeds_by_scene(by_scale["paper"])
-    lite = [r for r in by_scale["lite"] if r["scene"] in paper_seeds]
-    columns = {"lite": verdicts(lite), "lite_same": verdicts(restricted(lite, paper_seeds)),
-               "paper": verdicts(restricted(by_scale["paper"], paper_seeds))}
-    metrics = [m for m in metrics_of(lite) if m in metrics_of(by_scale["paper"])] if paper_seeds else []
-    out = []
-    for claim in CLAIMS:
-        for metric in metrics:
-            keys = [(claim, scene, metric) for scene in paper_seeds]
-            if not all(k in column for column in columns.values() for k in keys):
-                continue
-            out += [{"claim": claim, "scene": k[1], "metric": metric, **{n: c[k] for n, c in columns.items()}} for k in keys]
-            out.append({"claim": claim, "scene": "all scenes", "metric": metric,
-                        **{n: pooled([c[k] for k in keys]) for n, c in columns.items()}})
+def opponents(lite_rows: list[dict]) -> dict[tuple[str, str, str], str]:
+    """(claim, scene, metric) -> the variant STAIR is compared with at both scales: for claim (i) the strongest
+    baseline at lite over all its seeds, for claim (ii) STE."""
+    out = {("(i)", c.scene, c.metric): c.other for c in claim_one(lite_rows)}
+    out.update({("(ii)", scene, metric): "ste" for scene in scenes_of(lite_rows) for metric in metrics_of(lite_rows)
+                if seeds_of(lite_rows, scene, "ste")})
     return out
 
 
+def side_by_side(by_scale: dict[str, list[dict]]) -> list[dict]:
+    """One entry per claim, scene (and "all scenes", pooled) and metric that the paper-scale study can test: STAIR
+    against the same opponent (``opponents``) at lite over all its seeds (``lite``), at lite over the paper study's
+    seed numbers (``lite_same``) and at the paper scale (``paper``)."""
+    paper_seeds = seeds_by_scene(by_scale["paper"])
+    lite = [r for r in by_scale["lite"] if r["scene"] in paper_seeds]
+    if not paper_seeds or not lite:
+        return []
+    against = opponents(lite)
+    columns = {"lite": lite, "lite_same": restricted(lite, paper_seeds), "paper": restricted(by_scale["paper"], paper_seeds)}
+    metrics = [m for m in metrics_of(lite) if m in metrics_of(by_scale["paper"])]
+    out = []
+    for claim in CLAIMS:
+        for metric in metrics:
+            keys = [(claim, scene, metric) for scene in paper_seeds if (claim, scene, metric) in against]
+            if not keys:
+                continue
+            mine = [{"claim": claim, "scene": k[1], "metric": metric,
+                     **{name: compare(rows, k[1], metric, "stair", against[k]) for name, rows in columns.items()}}
+                    for k in keys]
+            out += mine + [{"claim": claim, "scene": "all scenes", "metric": metric,
+                            **{name: pooled([e[name] for e in mine]) for name in columns}}]
+    return out
+
+
+def scale_effect(entry: dict) -> tuple[float, float]:
+    """The paper scale's mean paired difference minus lite's (all seeds), and Welch's two-sided p for it (NaN with
+    fewer than two pairs at either scale): does STAIR's advantage itself change with scale?"""
+    paper, lite = entry["paper"].differences, entry["lite"].differences
+    if len(paper) < 2 or len(lite) < 2 or (np.ptp(paper) == 0 and np.ptp(lite) == 0):
+        return float(paper.mean() - lite.mean()), float("nan")
+    return float(paper.mean() - lite.mean()), float(stats.ttest_ind(paper, lite, equal_var=False).pvalue)
+
+
 def changes_with_scale(entry: dict) -> bool:
-    """The paper scale's verdict differs from lite's over the same seeds."""
-    return entry["paper"].verdict != entry["lite_same"].verdict
+    """Welch's test finds STAIR's paired difference at the paper scale unlike lite's (p < ALPHA)."""
+    return scale_effect(entry)[1] < ALPHA
 
 
 def core_hours(rows: list[dict]) -> float:
-    """The compute the missions' phases took (plan, train, evaluate), in core-hours (each mission ran one thread)."""
+    """The wall time of the missions' phases (plan, train, evaluate; measuring a view takes well under a second) summed,
+    in hours: core-hours where each mission ran on one core (the sweeps' workers run torch on one thread; the mesh
+    scores' nearest-distance queries may use every core)."""
     return sum(r["time_plan_s"] + r["time_train_s"] + r["time_evaluate_s"] for r in rows) / 3600
 
 
 def scores(by_scale: dict[str, list[dict]], metric: str) -> dict[tuple[str, str], float]:
     """(scale, variant) -> the metric's mean over the steps, averaged over the paper study's finished (scene, seed)
-    pairs: what the scale buys each planner."""
+    pairs that the scale ran (NaN: none). The scales evaluate differently: compare variants within a scale."""
     paper_seeds = seeds_by_scene(by_scale["paper"])
-    return {(scale, v): float(np.mean([r[metric] for r in restricted(rows, paper_seeds) if r["variant"] == v]))
-            for scale, rows in by_scale.items() for v in VARIANTS}
+    out = {}
+    for scale, rows in by_scale.items():
+        for v in VARIANTS:
+            values = [r[metric] for r in restricted(rows, paper_seeds) if r["variant"] == v]
+            out[scale, v] = float(np.mean(values)) if values else float("nan")
+    return out
 
 
 def _cell(c: Comparison) -> str:
     d, p = METRICS[c.metric].digits, (f"{c.p_value:.3f}" if len(c.differences) >= 2 else "-")
     against = f" vs {c.other}" if c.other != "ste" else ""
-    return f"{c.difference:+.{d}f}{against} (n={len(c.differences)}, p {p}) {SHORT[c.verdict]}"
+    return f"{c.difference:+.{d}f}{against} (n={len(c.differences)}, p = {p}) {SHORT[c.verdict]}"
+
+
+def _effect(entry: dict) -> str:
+    delta, p = scale_effect(entry)
+    d = METRICS[entry["metric"]].digits
+    return f"{delta:+.{d}f} (p = {p:.3f}) " + ("**yes**" if p < ALPHA else "no") if np.isfinite(p) else f"{delta:+.{d}f} (-) no"
 
 
 def _missions(rows: list[dict]) -> int:
@@ -119,7 +158,8 @@ def _missions(rows: list[dict]) -> int:
 
 
 def markdown_report(by_scale: dict[str, list[dict]]) -> str:
-    """The study's state and compute, then per claim the pooled verdicts and the per-scene ones at both scales."""
+    """The study's state and compute, the variants' scores within each scale, then per claim the pooled and the
+    per-scene comparisons at both scales and whether STAIR's difference changes with scale."""
     paper_seeds = seeds_by_scene(by_scale["paper"])
     state = ", ".join(f"{scene} seeds {', '.join(map(str, seeds))}" for scene, seeds in paper_seeds.items()) or "none yet"
     lite_shared = [r for r in by_scale["lite"] if r["variant"] in VARIANTS]
@@ -128,29 +168,34 @@ def markdown_report(by_scale: dict[str, list[dict]]) -> str:
            f"{core_hours(by_scale['paper']):.1f} core-hours, {60 * core_hours(by_scale['paper']) / max(1, _missions(by_scale['paper'])):.0f} "
            f"minutes a mission; at lite {_missions(lite_shared)} missions, {core_hours(lite_shared):.1f} core-hours, "
            f"{60 * core_hours(lite_shared) / max(1, _missions(lite_shared)):.1f} minutes a mission.", ""]
+    if not paper_seeds:
+        return "\n".join(out + ["No scene has every shared variant finished at the paper scale yet.", ""])
     entries = side_by_side(by_scale)
     if not entries:
-        return "\n".join(out + ["No scene has every shared variant finished at the paper scale yet.", ""])
-    changed = [e for e in entries if e["scene"] != "all scenes" and changes_with_scale(e)]
+        return "\n".join(out + ["The lite comparison holds none of the scenes the paper scale finished.", ""])
     per_scene = [e for e in entries if e["scene"] != "all scenes"]
+    changed = [e for e in per_scene if changes_with_scale(e)]
+    tested = [e for e in per_scene if np.isfinite(scale_effect(e)[1])]
     seeds_only = [e for e in per_scene if e["lite"].verdict != e["lite_same"].verdict]
     shown = metrics_of(by_scale["lite"] + by_scale["paper"])
     means = {m: scores(by_scale, m) for m in ("psnr", "psnr_clean", "f1", "chamfer") if m in shown}
-    out += ["Each variant's mean over the steps, averaged over those scenes and seeds, at lite and at the paper scale:", "",
+    out += ["Each variant's mean over the steps, averaged over those scenes and seeds (compare the variants within a "
+            "scale: the two scales also evaluate differently):", "",
             "| variant | " + " | ".join(f"{m} lite | {m} paper" for m in means) + " |", "|---|" + "---|---|" * len(means),
             *[f"| {v} | " + " | ".join(f"{means[m]['lite', v]:.{METRICS[m].digits}f} | {means[m]['paper', v]:.{METRICS[m].digits}f}"
                                        for m in means) + " |" for v in VARIANTS], ""]
-    out += [f"Per scene and metric, the paper scale's verdict differs from lite's over the same seeds in {len(changed)} "
-            f"of {len(per_scene)} comparisons; lite's own verdict changes with only the paper study's seeds in "
-            f"{len(seeds_only)}. Each cell: the paired difference (claimed minus other), the pairs, p and the verdict "
-            "(n.s.: not significant).", ""]
+    out += [f"STAIR's paired difference changes with scale (Welch's test against lite's, p < {ALPHA}) in {len(changed)} of "
+            f"the {len(tested)} per-scene comparisons that have two pairs at the paper scale (about {ALPHA * len(tested):.1f} "
+            f"expected by chance alone); lite's own verdict changes with only as many seeds as the paper study has in "
+            f"{len(seeds_only)} of {len(per_scene)}. Each cell: the paired difference (STAIR minus the other), the pairs, p "
+            "and the verdict (n.s.: not significant); the last column the paper scale's difference minus lite's.", ""]
     for claim, what in CLAIMS.items():
         mine = [e for e in entries if e["claim"] == claim]
         out += [f"### Claim {claim}: {what}", "",
-                "| scene | metric | lite, all seeds | lite, the paper study's seeds | paper scale | changes with scale |",
-                "|---|---|---|---|---|---|"]
+                "| scene | metric | lite, all seeds | lite, as many seeds as the paper scale | paper scale | "
+                "changes with scale |", "|---|---|---|---|---|---|"]
         for e in sorted(mine, key=lambda e: (e["scene"] != "all scenes", e["scene"])):
             out.append(f"| {e['scene']} | {e['metric']} | {_cell(e['lite'])} | {_cell(e['lite_same'])} | "
-                       f"{_cell(e['paper'])} | {'**yes**' if changes_with_scale(e) else 'no'} |")
+                       f"{_cell(e['paper'])} | {_effect(e)} |")
         out.append("")
     return "\n".join(out)

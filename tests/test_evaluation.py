@@ -283,3 +283,11 @@ def test_mesh_scores_in_spatial_order_are_the_scores_of_plain_queries():
     assert (scores.precision, scores.completeness) == (float(np.mean(d_pred < 0.01)), float(np.mean(d_gt < 0.01)))
     assert scores.f1 == f1_score(scores.precision, scores.completeness) and 0 < scores.completeness < 0.9
     assert scores.f1_at == {t: f1_score(float(np.mean(d_pred < t)), float(np.mean(d_gt < t))) for t in (0.02, 0.05)}
+
+
+def test_a_tree_of_no_points_answers_like_scipys():
+    from stair_lite.evaluation import nearest_distances, point_tree, spatial_order
+
+    assert len(spatial_order(np.zeros((0, 3)))) == 0
+    assert point_tree(np.zeros((0, 3))).n == 0
+    assert len(nearest_distances(point_tree(np.ones((3, 3))), np.zeros((0, 3)))) == 0

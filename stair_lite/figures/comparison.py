@@ -36,9 +36,9 @@ def plot_claim_differences(claims: dict[str, list], metrics: tuple[str, ...]):
 def plot_scale_differences(entries: list[dict], metrics: tuple[str, ...],
                            columns: dict[str, str] | None = None):
     """``scale_study.side_by_side``'s entries: one row per claim, one panel per metric; per scene (and pooled) the
-    mean paired difference with its 95 % confidence interval at each scale side by side (hollow: lite over the
-    paper study's seeds; filled: the paper scale), coloured by the verdict; up is better for the claimed side."""
-    columns = columns or {"lite, the paper study's seeds": "lite_same", "paper scale": "paper"}
+    mean paired difference with its 95 % confidence interval at each scale side by side (hollow: lite over as many
+    seeds as the paper scale finished; filled: the paper scale), coloured by the verdict; up is better for STAIR."""
+    columns = columns or {"lite, as many seeds as the paper scale": "lite_same", "paper scale": "paper"}
     claims = sorted({e["claim"] for e in entries})
     fig, axes = plt.subplots(len(claims), len(metrics), figsize=(3.6 * len(metrics), 2.6 * len(claims)), squeeze=False)
     for row, claim in zip(axes, claims):

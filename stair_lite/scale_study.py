@@ -40,7 +40,11 @@ SHORT = {"holds": "holds", "reversed": "reversed", "not significant": "n.s."}
 
 
 def scale_rows(root: Path = RESULTS_DIR, log=print) -> dict[str, list[dict]]:
-    """Scale -> the finished missions of the shared variants in its comparison folder (an absent folder: none)."""
+    """Scale -> the finished missions of the shared variants in its comparison folder (an absent folder: none; a root
+    with neither folder is refused)."""
+    if not any((Path(root) / name).is_dir() for name in SCALES.values()):
+        raise ValueError(f"{root} holds neither {' nor '.join(SCALES.values())}: name the folder of the stored results "
+                         "(data/results)")
     out = {}
     for scale, name in SCALES.items():
         folder = Path(root) / name

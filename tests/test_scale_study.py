@@ -104,3 +104,13 @@ def test_the_scale_figure_sets_both_scales_side_by_side():
     first = fig.axes[0]  # claim (i), psnr: per scene (and pooled) a hollow lite point left of a filled paper point
     assert [t.get_text() for t in first.get_xticklabels()] == ["scene1", "scene4", "all scenes"]
     assert len(first.lines) >= 6
+
+
+def test_scale_claims_of_a_folder_without_the_studies_is_one_line(tmp_path):
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", "stair_lite", "scale-claims", "--results", str(tmp_path)],
+                          capture_output=True, text=True)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "holds neither comparison_lite nor comparison_paper" in done.stderr

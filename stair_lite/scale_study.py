@@ -26,7 +26,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-
 from scipy import stats
 
 from .claims import ALPHA, Comparison, claim_one, compare, metrics_of, scenes_of, seeds_of

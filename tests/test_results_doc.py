@@ -7,36 +7,33 @@ from stair_lite.claims import markdown_report
 from stair_lite.experiments import RESULTS_DIR, collect
 
 RESULTS_MD = Path(__file__).resolve().parents[1] / "RESULTS.md"
-BEGIN, END = "<!-- claims: generated", "<!-- claims: end -->"
+
+
+def quoted(marker: str) -> str:
+    """The generated block of RESULTS.md between ``<!-- marker: generated ...`` and ``<!-- marker: end -->``."""
+    text = RESULTS_MD.read_text()
+    return text[text.index(f"<!-- {marker}: generated"):text.index(f"<!-- {marker}: end -->")].split("\n", 1)[1].rstrip("\n")
 
 
 def test_results_md_quotes_the_computed_verdicts():
-    text = RESULTS_MD.read_text()
-    quoted = text[text.index(BEGIN):text.index(END)].split("\n", 1)[1].rstrip("\n")
     computed = markdown_report(collect(RESULTS_DIR / "comparison_lite"),
                                collect(RESULTS_DIR / "ablation_hidden_chair_lite")).rstrip("\n")
-    assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite claims ...` between its markers"
+    assert quoted("claims") == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite claims ...` between its markers"
 
 
 def test_results_md_quotes_the_label_noise_verdicts():
     from stair_lite.noise_study import markdown_report as noise_report, study_rows
 
-    begin, end = "<!-- label noise: generated", "<!-- label noise: end -->"
-    text = RESULTS_MD.read_text()
-    quoted = text[text.index(begin):text.index(end)].split("\n", 1)[1].rstrip("\n")
     computed = noise_report(study_rows(RESULTS_DIR, log=lambda message: None)).rstrip("\n")
-    assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite label-noise-claims`"
+    assert quoted("label noise") == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite label-noise-claims`"
 
 
 @pytest.mark.parametrize("marker, folder", [("league", "headroom_league_lite"), ("league former", "headroom_league_lite_former")])
 def test_results_md_quotes_the_computed_league(marker, folder):
     from stair_lite.headroom import Headroom, league_markdown
 
-    begin, end = f"<!-- {marker}: generated", f"<!-- {marker}: end -->"
-    text = RESULTS_MD.read_text()
-    quoted = text[text.index(begin):text.index(end)].split("\n", 1)[1].rstrip("\n")
     computed = league_markdown([Headroom.load(p.with_suffix("")) for p in sorted((RESULTS_DIR / folder).glob("*.json"))])
-    assert quoted == computed.rstrip("\n"), f"RESULTS.md is stale: paste the output of `python -m stair_lite league --results {folder}`"
+    assert quoted(marker) == computed.rstrip("\n"), f"RESULTS.md is stale: paste the output of `python -m stair_lite league --results {folder}`"
 
 
 def test_the_stored_league_is_of_the_adopted_map():
@@ -95,8 +92,5 @@ def test_each_stored_results_table_holds_every_mission_of_its_folder():
 def test_results_md_quotes_the_scale_verdicts():
     from stair_lite.scale_study import markdown_report as scale_report, scale_rows
 
-    begin, end = "<!-- scale: generated", "<!-- scale: end -->"
-    text = RESULTS_MD.read_text()
-    quoted = text[text.index(begin):text.index(end)].split("\n", 1)[1].rstrip("\n")
     computed = scale_report(scale_rows(RESULTS_DIR, log=lambda message: None)).rstrip("\n")
-    assert quoted == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite scale-claims`"
+    assert quoted("scale") == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite scale-claims`"

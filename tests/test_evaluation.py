@@ -291,3 +291,12 @@ def test_a_tree_of_no_points_answers_like_scipys():
     assert len(spatial_order(np.zeros((0, 3)))) == 0
     assert point_tree(np.zeros((0, 3))).n == 0
     assert len(nearest_distances(point_tree(np.ones((3, 3))), np.zeros((0, 3)))) == 0
+
+
+def test_nearest_distances_come_back_in_the_queries_order():
+    """Queried in spatial order, the distances are returned query by query: each equals a plain query's."""
+    from stair_lite.evaluation import nearest_distances, point_tree
+
+    rng = np.random.default_rng(2)
+    points, queries = rng.uniform(-1, 1, size=(5000, 3)), rng.uniform(-1.2, 1.2, size=(3000, 3))
+    np.testing.assert_array_equal(nearest_distances(point_tree(points), queries), cKDTree(points).query(queries)[0])

@@ -37,8 +37,8 @@ from .course_guard import tampering
 NOTEBOOK_DIR = Path(__file__).resolve().parent.parent / "notebooks"
 ASSIGNMENT = "stair_lite"  # nbgrader's name for the course's one assignment: the six notebooks
 CELL_TIMEOUT_S = 600  # as the notebook tests (nbval's cell timeout)
-RUN_PAST = "raises-exception"
-_GRADING: set[int] = set()  # the process groups of the notebooks being graded now  # the cell tag with which Run All goes on past an error (Jupyter, nbclient)
+RUN_PAST = "raises-exception"  # the cell tag with which Run All goes on past an error (Jupyter, nbclient)
+_GRADING: set[int] = set()  # the process groups of the notebooks being graded now
 
 
 def _notebooks(notebooks) -> list[Path]:
@@ -335,6 +335,8 @@ def main(argv: list[str] | None = None) -> None:
                    help="address space of a notebook's process and kernel (default %(default)s)")
     p.add_argument("--workers", type=int, default=1, help="notebooks graded at a time, each in its own process "
                    "(default %(default)s)")
+    p.add_argument("--keep", default=None, help="a folder for the executed submissions, "
+                   "KEEP/<student>/stair_lite/<notebook>.ipynb, with their outputs (default: not kept)")
     args = parser.parse_args(argv)
     # a terminated grading unwinds like Ctrl-C: the running notebook is stopped and the temporary folders go
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
@@ -344,7 +346,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     try:
         limits = Limits(args.timeout, args.notebook_timeout, args.memory_gb)
-        grades = grade(args.submissions, limits=limits, workers=args.workers)
+        grades = grade(args.submissions, keep=args.keep, limits=limits, workers=args.workers)
     except ValueError as err:
         parser.exit(2, f"error: {err}\n")
     write_table(grades, args.out)

@@ -4,7 +4,7 @@ The notebooks run once per test session (nbval); each notebook whose every cell 
 outputs of that run, to ``build/executed/`` (``STAIR_EXECUTED_DIR`` overrides), so that the book
 (``python -m stair_lite.book``) is built from exactly the copies that were checked. The book's own test
 (``tests/test_book.py``) runs after the notebooks, the release test (``tests/test_course.py``, minutes of grading) just
-before it: its grading starts as the session begins and runs beside the other tests at low priority. The session ends with each notebook's run time (the sum of its
+before it: its grading starts as the session begins and runs beside the other tests at idle priority. The session ends with each notebook's run time (the sum of its
 cells'), against the course's budget of ``NOTEBOOK_BUDGET_S`` per notebook on a 2-core machine.
 """
 import os

@@ -3,8 +3,7 @@
 The notebooks run once per test session (nbval); each notebook whose every cell passed is written, with the
 outputs of that run, to ``build/executed/`` (``STAIR_EXECUTED_DIR`` overrides), so that the book
 (``python -m stair_lite.book``) is built from exactly the copies that were checked. The book's own test
-(``tests/test_book.py``) runs after the notebooks, the release test (``tests/test_course.py``, minutes of grading) just
-before it: its grading starts as the session begins and runs beside the other tests at idle priority. The session ends with each notebook's run time (the sum of its
+(``tests/test_book.py``) runs after the notebooks. The session ends with each notebook's run time (the sum of its
 cells'), against the course's budget of ``NOTEBOOK_BUDGET_S`` per notebook on a 2-core machine.
 """
 import os
@@ -16,14 +15,12 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 EXECUTED_DIR = Path(os.environ.get("STAIR_EXECUTED_DIR", Path(__file__).parent / "build" / "executed"))
 _passed: dict = {}  # nbval's notebook node -> [its cells collected, its cells passed]; written when all passed
 _seconds: dict = {}  # notebook file name -> seconds its cells took in this session
-_background: list = []  # the slow preparations started as the session begins (tests/test_course.py)
 NOTEBOOK_BUDGET_S = 240  # a notebook at learner defaults runs in at most 4 minutes (README, "Teaching")
 
 
 def pytest_collection_modifyitems(session, config, items):
-    """The book's test last: it reads the notebooks executed in this session; the release test just before it."""
-    items.sort(key=lambda item: (Path(str(item.fspath)).name == "test_book.py",
-                                 item.get_closest_marker("release") is not None))
+    """The book's test last: it reads the notebooks executed in this session."""
+    items.sort(key=lambda item: Path(str(item.fspath)).name == "test_book.py")
     for item in items:
         if hasattr(item, "test_outputs"):  # a notebook cell under nbval
             _passed.setdefault(item.parent, [0, 0])[0] += 1
@@ -43,20 +40,9 @@ def pytest_runtest_makereport(item, call):
 
 
 def pytest_collection_finish(session):
-    """No copy of an older run beside the notebooks this session runs (a failed one would leave it there); the
-    release test's grading starts (tests/test_course.py, ``GradingInTheBackground``)."""
+    """No copy of an older run beside the notebooks this session runs (a failed one would leave it there)."""
     for node in _passed:
         (EXECUTED_DIR / Path(str(node.fspath)).name).unlink(missing_ok=True)
-    for item in [] if session.config.option.collectonly else session.items:
-        if item.get_closest_marker("release"):
-            _background.append(item.module.RELEASE_GRADING)
-            item.module.RELEASE_GRADING.start()
-
-
-def pytest_sessionfinish(session):
-    """A session stopped early (Ctrl-C, -x) leaves no grading running and no folder of it behind."""
-    for job in _background:
-        job.stop()
 
 
 def pytest_terminal_summary(terminalreporter):

@@ -1,12 +1,10 @@
 """The course edition: exercises as nbgrader cells, a student release without solutions, grading by points."""
 import csv
 import json
-import os
 import re
 import shutil
 import subprocess
 import sys
-import tempfile
 import warnings
 from pathlib import Path
 
@@ -201,76 +199,29 @@ def prepare_the_release_with_one_wrong_answer_per_notebook(root: Path) -> dict:
     return {"expected_failed": expected_failed, "points": points}
 
 
-def idle_priority() -> None:
-    """This process and its children run only when a core would otherwise idle (Linux's SCHED_IDLE; elsewhere
-    the lowest nice value)."""
-    try:
-        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
-    except (AttributeError, OSError):
-        os.nice(19)
-
-
-class GradingInTheBackground:
-    """The release test's grading, minutes of notebooks, as an instructor runs it (``python -m stair_lite.course
-    grade``) in a process of its own at idle priority: conftest.py starts it as the test session begins, so that
-    the cores the other tests leave idle do most of it, and orders the test that waits for it near the end. Its
-    limits are generous (a cell may wait for a core): this test is about what grading finds, not how fast."""
-
-    def __init__(self, prepare):
-        self.prepare, self.root, self.process, self.expected = prepare, None, None, None
-
-    def start(self) -> None:
-        if self.process is not None:
-            return
-        self.root = Path(tempfile.mkdtemp(prefix="stair_release_test_"))
-        self.expected = self.prepare(self.root)
-        with open(self.root / "grading.log", "w") as log:
-            self.process = subprocess.Popen(
-                [sys.executable, "-m", "stair_lite.course", "grade", str(self.root / "submissions"), "--workers", "2",
-                 "--timeout", "3600", "--notebook-timeout", "7200", "--out", str(self.root / "grades.csv"),
-                 "--keep", str(self.root / "executed")],
-                stdout=log, stderr=subprocess.STDOUT, preexec_fn=idle_priority)
-
-    def wait(self) -> dict:
-        """The grades table's rows by notebook, once the grading has ended (started here when nothing has)."""
-        self.start()
-        if self.process.wait() != 0:
-            raise AssertionError(f"grading failed:\n{(self.root / 'grading.log').read_text()[-3000:]}")
-        with open(self.root / "grades.csv", newline="") as table:
-            return {row["notebook"]: row for row in csv.DictReader(table)}
-
-    def stop(self) -> None:
-        """Stop a grading still running (the session ended early) and remove its folder."""
-        if self.process is not None and self.process.poll() is None:
-            self.process.terminate()  # the grader unwinds as after Ctrl-C: its notebooks stop, its folders go
-            self.process.wait()
-        if self.root is not None:
-            shutil.rmtree(self.root, ignore_errors=True)
-
-
-RELEASE_GRADING = GradingInTheBackground(prepare_the_release_with_one_wrong_answer_per_notebook)
-
-
 @pytest.mark.release
-def test_the_release_with_one_wrong_answer_per_notebook_runs_to_the_end_and_loses_those_points():
-    """Grading runs each notebook of the release above top to bottom: only the checks of its wrong and unanswered
-    answers fail, every later cell runs on the reference, and the points drop by theirs."""
-    try:
-        rows = RELEASE_GRADING.wait()
-        expected_failed, points = RELEASE_GRADING.expected["expected_failed"], RELEASE_GRADING.expected["points"]
-        assert sorted(rows) == sorted(expected_failed)
-        for name, row in rows.items():
-            failed = tuple(row["failed_checks"].split())
-            assert failed == expected_failed[name] and not row["reason"], (name, row)
-            lost = sum(points[(name, c)] for c in failed)
-            assert float(row["score"]) == float(row["max_score"]) - lost < float(row["max_score"]), (name, row)
-            executed = nbformat.read(RELEASE_GRADING.root / "executed" / "learner" / course.ASSIGNMENT / name,
-                                     as_version=4)
-            errors = [grading(c).get("grade_id") for c in executed.cells
-                      if any(o.get("output_type") == "error" for o in c.get("outputs", []))]
-            assert sorted(errors) == list(failed), name  # only the failing checks raised; the rest ran
-            assert all(c.execution_count for c in executed.cells if c.cell_type == "code"), name  # every cell ran
-            printed = "".join(o.get("text", "") for c in executed.cells for o in c.get("outputs", []))
-            assert printed.count("does not pass its check yet") >= len(failed), name  # fell back on the reference
-    finally:
-        RELEASE_GRADING.stop()
+def test_the_release_with_one_wrong_answer_per_notebook_runs_to_the_end_and_loses_those_points(tmp_path):
+    """Graded as an instructor grades (``python -m stair_lite.course grade``, keeping the executed notebooks), each
+    notebook of the release above runs top to bottom: only the checks of its wrong and unanswered answers fail,
+    every later cell runs on the reference, and the points drop by theirs."""
+    expected = prepare_the_release_with_one_wrong_answer_per_notebook(tmp_path)
+    expected_failed, points = expected["expected_failed"], expected["points"]
+    graded = subprocess.run([sys.executable, "-m", "stair_lite.course", "grade", str(tmp_path / "submissions"),
+                             "--workers", "2", "--out", str(tmp_path / "grades.csv"), "--keep", str(tmp_path / "executed")],
+                            capture_output=True, text=True)
+    assert graded.returncode == 0, graded.stdout[-3000:] + graded.stderr[-3000:]
+    with open(tmp_path / "grades.csv", newline="") as table:
+        rows = {row["notebook"]: row for row in csv.DictReader(table)}
+    assert sorted(rows) == sorted(expected_failed)
+    for name, row in rows.items():
+        failed = tuple(row["failed_checks"].split())
+        assert failed == expected_failed[name] and not row["reason"], (name, row)
+        lost = sum(points[(name, c)] for c in failed)
+        assert float(row["score"]) == float(row["max_score"]) - lost < float(row["max_score"]), (name, row)
+        executed = nbformat.read(tmp_path / "executed" / "learner" / course.ASSIGNMENT / name, as_version=4)
+        errors = [grading(c).get("grade_id") for c in executed.cells
+                  if any(o.get("output_type") == "error" for o in c.get("outputs", []))]
+        assert sorted(errors) == list(failed), name  # only the failing checks raised; the rest ran
+        assert all(c.execution_count for c in executed.cells if c.cell_type == "code"), name  # every cell ran
+        printed = "".join(o.get("text", "") for c in executed.cells for o in c.get("outputs", []))
+        assert printed.count("does not pass its check yet") >= len(failed), name  # fell back on the reference

@@ -253,7 +253,8 @@ def grade(submissions: str | Path, notebooks: list[Path] | None = None, keep: st
     the graded cells restored from the source), each notebook in its own confined process (``_grade_isolated``)
     after the tripwire (``course_guard``) has read it, ``workers`` notebooks at a time. A notebook that cannot be
     graded gets its row with 0 points and the reason; the others are graded. ``keep``: a folder for the executed
-    submissions."""
+    submissions. One grading per process at a time: nbgrader changes the working directory while it generates the
+    course (two gradings in threads of one process break each other; run them as processes)."""
     from concurrent.futures import ThreadPoolExecutor
 
     if workers < 1:

@@ -26,6 +26,9 @@ from .rendering import ray_box_intersection
 from .training import Losses
 
 
+RENDER_CHUNK_RAYS = 8192  # rays marched at once in a target-only render
+
+
 def logit(p: float) -> float:
     return float(np.log(p / (1.0 - p)))
 
@@ -84,16 +87,25 @@ class ExplicitMap(ReconstructionMap):
         """Flat voxel indices of points (..., 3) and whether each lies inside the grid."""
         return self.grid.cell_index(points)
 
-    def _march(self, origins: torch.Tensor, dirs: torch.Tensor, t_end: torch.Tensor | None = None, step_voxels: float = 0.5):
+    def _march(self, origins: torch.Tensor, dirs: torch.Tensor, t_end: torch.Tensor | None = None, step_voxels: float = 0.5,
+               within: tuple[torch.Tensor, torch.Tensor] | None = None):
         """Flat voxel indices (R, S) along rays from the cube entry to ``t_end`` (or the exit), sampled
-        every ``step_voxels`` voxels, and which samples are valid (on the ray's stretch inside the cube)."""
+        every ``step_voxels`` voxels, and which samples are valid (on the ray's stretch inside the cube).
+        ``within``: a box (low, high): only the samples near it, at the same ray parameters as without it."""
         t_near, t_far, hit = ray_box_intersection(origins, dirs, self.grid.bound, near=0.0)
         if t_end is not None:
             t_far = torch.minimum(t_far, t_end)
         o, d = self.grid.to_voxel_units(origins), dirs / self.voxel
         step = step_voxels / d.norm(dim=1)
-        n = int(torch.ceil(((t_far - t_near).clamp(min=0) / step).max()).item()) + 1 if len(origins) else 1
-        t = t_near[:, None] + step[:, None] * torch.arange(n, device=self.device)
+        first = torch.zeros(len(origins), dtype=torch.long, device=self.device)  # the first sample's number
+        if within is not None:  # from the last sample before the box to the first after it
+            b_near, b_far, b_hit = ray_box_intersection(origins, dirs, within[1], near=0.0, low=within[0])
+            hit = hit & b_hit
+            first = ((b_near - t_near) / step).floor().clamp(min=0).long()
+            t_far = torch.minimum(t_far, b_far + step)
+        span = (t_far - t_near) / step - first
+        n = int(torch.ceil(span.clamp(min=0).max()).item()) + 1 if len(origins) else 1
+        t = t_near[:, None] + step[:, None] * (first[:, None] + torch.arange(n, device=self.device))
         valid = hit[:, None] & (t < t_far[:, None])
         index, _ = self.grid.flat_from_voxel_units(o[:, None, :] + t[..., None] * d[:, None, :])
         return index, valid
@@ -177,9 +189,11 @@ class ExplicitMap(ReconstructionMap):
 
     def target_only_renders(self, intrinsics, poses, targets, z_min):
         """First-hit renders; the same images twice: the map holds only voxels it has seen occupied, so
-        there is no unobserved volume under the ground to cut."""
+        there is no unobserved volume under the ground to cut. The target voxels and their colours are read once
+        for all the views."""
+        solid, colours = self._target_voxels(targets)
         for pose in poses:
-            render = self.render_target_only(intrinsics, pose, targets)
+            render = self._first_hit_colours(intrinsics, pose, solid, colours)
             yield render, render
 
     @property
@@ -192,17 +206,44 @@ class ExplicitMap(ReconstructionMap):
 
         As for the field, non-target voxels count as empty (paper Sec. IV-A's target-only renders).
         """
+        return self._first_hit_colours(intrinsics, pose, *self._target_voxels(targets))
+
+    def _box_around(self, voxels: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor] | None:
+        """World-coordinate corners (low, high) of the box around the set voxels, one voxel wider on every side
+        (None when none is set)."""
+        r = self.cfg.resolution
+        cells = torch.nonzero(xyz(voxels.view(r, r, r)))  # (N, 3) cell coordinates i, j, k
+        if len(cells) == 0:
+            return None
+        low = -self.grid.bound + self.voxel * (cells.amin(dim=0) - 1).float()
+        high = -self.grid.bound + self.voxel * (cells.amax(dim=0) + 2).float()
+        return low, high
+
+    def _target_voxels(self, targets) -> tuple[torch.Tensor, torch.Tensor]:
+        """Which voxels are occupied (p > 0.5) target voxels, and every voxel's colour."""
+        solid = (self.probability > OCCUPIED) & torch.isin(self.labels, torch.as_tensor(targets, device=self.device))
+        return solid, self.colours
+
+    @torch.no_grad()
+    def _first_hit_colours(self, intrinsics: Intrinsics, pose: np.ndarray, solid: torch.Tensor, colours: torch.Tensor,
+                           chunk_rays: int = RENDER_CHUNK_RAYS) -> np.ndarray:
+        """The first-hit image, ``chunk_rays`` rays at a time (each ray on its own: chunks change no pixel; a
+        400 x 400 image marched at once would hold about 70 M samples), each ray sampled only near the box of the
+        target voxels (no sample outside it can be one: the same first hits)."""
         origins, dirs = pixel_rays(intrinsics, pose)
         origins = torch.as_tensor(origins, dtype=torch.float32, device=self.device)
         dirs = torch.as_tensor(dirs, dtype=torch.float32, device=self.device)
-        index, valid = self._march(origins, dirs)
-        solid = (self.probability > OCCUPIED) & torch.isin(self.labels, torch.as_tensor(targets, device=self.device))
-        hit = solid[index] & valid
-        first = hit.float().argmax(dim=1)
-        any_hit = hit.any(dim=1)
-        colour = torch.where(any_hit[:, None], self.colours[index[torch.arange(len(index), device=self.device), first]],
-                             torch.ones(1, 3, device=self.device))
-        return colour.view(intrinsics.height, intrinsics.width, 3).cpu().numpy()
+        image = torch.ones(len(origins), 3, device=self.device)
+        box = self._box_around(solid)
+        if box is None:
+            return image.view(intrinsics.height, intrinsics.width, 3).cpu().numpy()
+        for start in range(0, len(origins), chunk_rays):
+            index, valid = self._march(origins[start : start + chunk_rays], dirs[start : start + chunk_rays], within=box)
+            hit = solid[index] & valid
+            first = hit.float().argmax(dim=1)
+            found = hit.any(dim=1)
+            image[start : start + chunk_rays][found] = colours[index[found, first[found]]]
+        return image.view(intrinsics.height, intrinsics.width, 3).cpu().numpy()
 
     # ------------------------------------------------------------------ planning (the ROI utility)
     @torch.no_grad()

@@ -5,7 +5,7 @@ import torch
 import stair_lite  # noqa: F401
 from stair_lite.config import ExplicitConfig
 from stair_lite.explicit import ExplicitMap, logit
-from stair_lite.geometry import Intrinsics, view_to_pose
+from stair_lite.geometry import Intrinsics, pixel_rays, view_to_pose
 from stair_lite.measurement import Measurement, back_project
 from stair_lite.scenes import load_scene
 from stair_lite.simulator import Simulator
@@ -72,6 +72,32 @@ def test_scene_map_meshes_renders_and_scores_views():
     scores = emap.roi_scores(views, scene.targets)
     assert scores.shape == (3,) and np.all(scores >= 0)
 
+
+
+def test_a_target_only_render_near_the_targets_and_in_chunks_equals_the_whole_ray_marched_at_once():
+    """Marching only near the target voxels' box gives the first hits of marching the whole ray; rays are
+    independent, so any chunk size gives the same pixels, bit for bit; the evaluation's renders (target voxels
+    read once for all views) equal one render per view."""
+    scene = load_scene("scene1")
+    sim = Simulator(scene)
+    emap = ExplicitMap(ExplicitConfig(resolution=64))
+    for el, az in [(np.pi / 2, 0.0), (0.5, 0.8)]:
+        emap.integrate(sim.render(view_to_pose(el, az)))
+    k, poses = Intrinsics.from_fov(48, 48), [view_to_pose(0.5, 0.8), view_to_pose(0.9, 2.5)]
+    solid, colours = emap._target_voxels(scene.targets)
+    for pose in poses:
+        whole = emap._first_hit_colours(k, pose, solid, colours, chunk_rays=k.width * k.height)
+        assert (whole < 1).any() and (whole == 1).all(axis=-1).any()  # targets seen and background
+        origins, dirs = (torch.as_tensor(a, dtype=torch.float32) for a in pixel_rays(k, pose))
+        index, valid = emap._march(origins, dirs)  # every sample of every ray
+        hit = solid[index] & valid
+        first_hit = colours[index[torch.arange(len(index)), hit.float().argmax(dim=1)]]
+        assert np.array_equal(whole.reshape(-1, 3), torch.where(hit.any(dim=1)[:, None], first_hit, 1.0).numpy())
+        for chunk in (1000, 777, 4096):
+            assert np.array_equal(emap._first_hit_colours(k, pose, solid, colours, chunk_rays=chunk), whole)
+    renders = list(emap.target_only_renders(k, poses, scene.targets, z_min=0.0))
+    for (render, cut), pose in zip(renders, poses):
+        assert render is cut and np.array_equal(render, emap.render_target_only(k, pose, scene.targets))
 
 def roi_test_map(wall: bool = False) -> ExplicitMap:
     """A map that knows every voxel free except: a target block T at +x, an unknown block beside it (between

@@ -191,9 +191,9 @@ class ExplicitMap(ReconstructionMap):
         """First-hit renders; the same images twice: the map holds only voxels it has seen occupied, so
         there is no unobserved volume under the ground to cut. The target voxels and their colours are read once
         for all the views."""
-        solid, colours = self._target_voxels(targets)
+        voxels = self._target_voxels(targets)
         for pose in poses:
-            render = self._first_hit_colours(intrinsics, pose, solid, colours)
+            render = self._first_hit_colours(intrinsics, pose, *voxels)
             yield render, render
 
     @property
@@ -219,14 +219,14 @@ class ExplicitMap(ReconstructionMap):
         high = -self.grid.bound + self.voxel * (cells.amax(dim=0) + 2).float()
         return low, high
 
-    def _target_voxels(self, targets) -> tuple[torch.Tensor, torch.Tensor]:
-        """Which voxels are occupied (p > 0.5) target voxels, and every voxel's colour."""
+    def _target_voxels(self, targets) -> tuple[torch.Tensor, torch.Tensor, tuple[torch.Tensor, torch.Tensor] | None]:
+        """Which voxels are occupied (p > 0.5) target voxels, every voxel's colour, and the box around the first."""
         solid = (self.probability > OCCUPIED) & torch.isin(self.labels, torch.as_tensor(targets, device=self.device))
-        return solid, self.colours
+        return solid, self.colours, self._box_around(solid)
 
     @torch.no_grad()
     def _first_hit_colours(self, intrinsics: Intrinsics, pose: np.ndarray, solid: torch.Tensor, colours: torch.Tensor,
-                           chunk_rays: int = RENDER_CHUNK_RAYS) -> np.ndarray:
+                           box: tuple[torch.Tensor, torch.Tensor] | None, chunk_rays: int = RENDER_CHUNK_RAYS) -> np.ndarray:
         """The first-hit image, ``chunk_rays`` rays at a time (each ray on its own: chunks change no pixel; a
         400 x 400 image marched at once would hold about 70 M samples), each ray sampled only near the box of the
         target voxels (no sample outside it can be one: the same first hits)."""
@@ -234,7 +234,6 @@ class ExplicitMap(ReconstructionMap):
         origins = torch.as_tensor(origins, dtype=torch.float32, device=self.device)
         dirs = torch.as_tensor(dirs, dtype=torch.float32, device=self.device)
         image = torch.ones(len(origins), 3, device=self.device)
-        box = self._box_around(solid)
         if box is None:
             return image.view(intrinsics.height, intrinsics.width, 3).cpu().numpy()
         for start in range(0, len(origins), chunk_rays):

@@ -84,9 +84,9 @@ def test_a_target_only_render_near_the_targets_and_in_chunks_equals_the_whole_ra
     for el, az in [(np.pi / 2, 0.0), (0.5, 0.8)]:
         emap.integrate(sim.render(view_to_pose(el, az)))
     k, poses = Intrinsics.from_fov(48, 48), [view_to_pose(0.5, 0.8), view_to_pose(0.9, 2.5)]
-    solid, colours = emap._target_voxels(scene.targets)
+    solid, colours, box = emap._target_voxels(scene.targets)
     for pose in poses:
-        whole = emap._first_hit_colours(k, pose, solid, colours, chunk_rays=k.width * k.height)
+        whole = emap._first_hit_colours(k, pose, solid, colours, box, chunk_rays=k.width * k.height)
         assert (whole < 1).any() and (whole == 1).all(axis=-1).any()  # targets seen and background
         origins, dirs = (torch.as_tensor(a, dtype=torch.float32) for a in pixel_rays(k, pose))
         index, valid = emap._march(origins, dirs)  # every sample of every ray
@@ -94,7 +94,7 @@ def test_a_target_only_render_near_the_targets_and_in_chunks_equals_the_whole_ra
         first_hit = colours[index[torch.arange(len(index)), hit.float().argmax(dim=1)]]
         assert np.array_equal(whole.reshape(-1, 3), torch.where(hit.any(dim=1)[:, None], first_hit, 1.0).numpy())
         for chunk in (1000, 777, 4096):
-            assert np.array_equal(emap._first_hit_colours(k, pose, solid, colours, chunk_rays=chunk), whole)
+            assert np.array_equal(emap._first_hit_colours(k, pose, solid, colours, box, chunk_rays=chunk), whole)
     renders = list(emap.target_only_renders(k, poses, scene.targets, z_min=0.0))
     for (render, cut), pose in zip(renders, poses):
         assert render is cut and np.array_equal(render, emap.render_target_only(k, pose, scene.targets))

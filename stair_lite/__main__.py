@@ -23,7 +23,7 @@ import stair_lite  # noqa: F401  (sets the offscreen platform before pyrender lo
 from .classes import CLASS_NAMES
 from .config import PRESETS, SEED_LIMIT
 from .experiments import WORKER_TIMEOUT_S
-from .maps import MAP_KINDS
+from .maps import IMPLICIT, MAP_KINDS
 from .planners import PLANNERS, REPLAY
 from .segmenter import LABEL_NOISE
 
@@ -70,8 +70,8 @@ def _cmd_fit(args):
     import numpy as np
 
     from .config import check_device, get_preset
+    from .evaluation import f1_column
     from .geometry import fibonacci_hemisphere
-    from .maps import IMPLICIT
     from .mission import World, build_map
     from .results_folder import make_output_folder
 
@@ -79,6 +79,8 @@ def _cmd_fit(args):
         value = getattr(args, name)
         if value is not None and not 1 <= value <= most:
             raise ValueError(f"--{name} must be between 1 and {most}, got {value}")
+    if args.mapper != IMPLICIT and (args.iterations is not None or args.rays is not None):
+        raise ValueError(f"--iterations and --rays set the field's training: the {args.mapper} map trains nothing")
     out = make_output_folder(args.out) if args.out else None  # before training: a bad folder costs nothing
     preset = get_preset(args.preset)
     if args.iterations is not None:
@@ -89,21 +91,25 @@ def _cmd_fit(args):
         preset = replace(preset, eval=get_preset(args.eval_preset).eval)
     world = World.build(args.scene, preset, args.seed, tuple(args.targets.split(",")) if args.targets else None,
                         args.label_noise)
-    implicit = build_map(IMPLICIT, preset, seed=args.seed, device=check_device(args.device))
+    fitted = build_map(args.mapper, preset, seed=args.seed, device=check_device(args.device))
     views = fibonacci_hemisphere(args.views, azimuth_offset=0.3)
-    print(f"preset {preset.name}: grid {preset.field.grid_resolution}^3, {preset.train.iterations_per_view} "
-          f"iterations/view, {preset.train.rays_new}+{preset.train.rays_replay} rays; scene {world.scene.name}, targets "
-          f"{world.targets}, label noise {args.label_noise}")
+    schedule = (f", {preset.train.iterations_per_view} iterations/view, {preset.train.rays_new}+{preset.train.rays_replay} "
+                "rays" if args.mapper == IMPLICIT else "")
+    print(f"preset {preset.name}: {args.mapper} map, grid {preset.field.grid_resolution}^3{schedule}; scene "
+          f"{world.scene.name}, targets {world.targets}, label noise {args.label_noise}")
     start = time.perf_counter()
     for i, view in enumerate(views):
-        history = implicit.integrate(world.measure(view, step=i + 1))
-        print(f"view {i + 1:2d}/{len(views)} (el {np.degrees(view[0]):4.1f}, az {np.degrees(view[1]):5.1f}): "
-              f"loss {history[-1].total:.4f}", flush=True)
+        history = fitted.integrate(world.measure(view, step=i + 1))
+        loss = f": loss {history[-1].total:.4f}" if history else ""
+        print(f"view {i + 1:2d}/{len(views)} (el {np.degrees(view[0]):4.1f}, az {np.degrees(view[1]):5.1f}){loss}", flush=True)
     t_train = time.perf_counter() - start
-    result = world.evaluator.evaluate(implicit)
+    result = world.evaluator.evaluate(fitted)
+    further = ", ".join(f"{f1_column(t)} {result[f1_column(t)]:.3f}" for t in preset.eval.more_f1_thresholds)
     print(f"target-only PSNR {result['psnr']:.2f} dB over {len(world.evaluator.poses)} test views | mesh precision "
           f"{result['precision']:.3f} completeness {result['completeness']:.3f} F1 {result['f1']:.3f} "
-          f"(1 cm, {preset.eval.mesh_points} points) | training {t_train:.1f} s, evaluation {result['time_total_s']:.1f} s")
+          f"(1 cm, {preset.eval.mesh_points} points), {further}, chamfer {result['chamfer'] * 100:.2f} cm | "
+          f"{'training' if args.mapper == IMPLICIT else 'integration'} {t_train:.1f} s, evaluation "
+          f"{result['time_total_s']:.1f} s")
     if out is not None and result["mesh"] is not None:
         result["mesh"].export(out / "target_mesh.ply")
         print(f"wrote {out / 'target_mesh.ply'}")
@@ -402,10 +408,11 @@ def main(argv=None):
     p.add_argument("--scene", default="scene1")
     p.add_argument("--out", default="runs/render")
     p.set_defaults(func=_cmd_render)
-    p = sub.add_parser("fit", help="fit a field to fixed spread views and evaluate it",
+    p = sub.add_parser("fit", help="fit a map (the field, or the voxel map) to fixed spread views and evaluate it",
                        parents=[shared[k] for k in ("preset", "mission", "compute", "labels")])
     p.add_argument("--scene", default="scene1")
     p.add_argument("--views", type=int, default=10)
+    p.add_argument("--mapper", default=IMPLICIT, choices=list(MAP_KINDS), help="the map fitted (default: the field)")
     p.add_argument("--iterations", type=int, default=None, help="override iterations per view")
     p.add_argument("--rays", type=int, default=None, help="override new and replay rays per iteration")
     p.add_argument("--eval-preset", default=None, choices=sorted(PRESETS), help="evaluate with another preset's protocol")

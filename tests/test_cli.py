@@ -74,6 +74,34 @@ def test_fit_refuses_an_empty_schedule(capsys, argv, message):
     assert message in err and "Traceback" not in err
 
 
+@pytest.mark.parametrize("option", ["--iterations", "--rays"])
+def test_fit_refuses_a_training_schedule_for_the_voxel_map(capsys, option):
+    assert main(["fit", "--mapper", "explicit", option, "10"]) == 2
+    err = capsys.readouterr().err
+    assert "--iterations and --rays set the field's training: the explicit map trains nothing" in err
+    assert "Traceback" not in err
+
+
+def test_fit_of_the_voxel_map_reports_the_scores_its_evaluator_gives(capsys):
+    """``fit --mapper explicit`` integrates the spread views into the voxel map and prints the evaluator's scores:
+    the same figures as integrating those views by hand and evaluating."""
+    from stair_lite.config import get_preset
+    from stair_lite.geometry import fibonacci_hemisphere
+    from stair_lite.mission import World, build_map
+
+    assert main(["fit", "--mapper", "explicit", "--preset", "smoke", "--views", "3"]) == 0
+    printed = capsys.readouterr().out
+    preset = get_preset("smoke")
+    world = World.build("scene1", preset)
+    voxels = build_map("explicit", preset)
+    for step, view in enumerate(fibonacci_hemisphere(3, azimuth_offset=0.3), start=1):
+        voxels.integrate(world.measure(view, step))
+    result = world.evaluator.evaluate(voxels)
+    assert "explicit map" in printed and "integration" in printed and "loss" not in printed
+    assert (f"F1 {result['f1']:.3f} (1 cm" in printed and f"f1_5cm {result['f1_5cm']:.3f}" in printed
+            and f"chamfer {result['chamfer'] * 100:.2f} cm" in printed), printed
+
+
 @pytest.mark.parametrize("content", ["not json", '{"steps": 5}', '{"steps": [{"view_rad": "x"}]}', '[1]'])
 def test_a_garbage_replay_file_is_named(tmp_path, capsys, content):
     replay = tmp_path / "garbage.json"

@@ -147,13 +147,14 @@ def scores(by_scale: dict[str, list[dict]], metric: str) -> dict[tuple[str, str]
 def _cell(c: Comparison) -> str:
     d, p = METRICS[c.metric].digits, (f"{c.p_value:.3f}" if len(c.differences) >= 2 else "-")
     against = f" vs {c.other}" if c.other != "ste" else ""
-    return f"{c.difference:+.{d}f}{against} (n={len(c.differences)}, p = {p}) {SHORT[c.verdict]}"
+    verdict = SHORT[c.verdict] if len(c.differences) >= 2 else "untested"  # one pair has no spread to test against
+    return f"{c.difference:+.{d}f}{against} (n={len(c.differences)}, p = {p}) {verdict}"
 
 
 def _effect(entry: dict) -> str:
     delta, p = scale_effect(entry)
     d = METRICS[entry["metric"]].digits
-    return f"{delta:+.{d}f} (p = {p:.3f}) " + ("**yes**" if p < ALPHA else "no") if np.isfinite(p) else f"{delta:+.{d}f} (-) no"
+    return f"{delta:+.{d}f} (p = {p:.3f}) " + ("**yes**" if p < ALPHA else "no") if np.isfinite(p) else f"{delta:+.{d}f} (-) untested"
 
 
 def _missions(rows: list[dict]) -> int:
@@ -179,7 +180,10 @@ def markdown_report(by_scale: dict[str, list[dict]]) -> str:
     per_scene = [e for e in entries if e["scene"] != "all scenes"]
     changed = [e for e in per_scene if changes_with_scale(e)]
     tested = [e for e in per_scene if np.isfinite(scale_effect(e)[1])]
-    seeds_only = [e for e in per_scene if e["lite"].verdict != e["lite_same"].verdict]
+    pooled_tested = [e for e in entries if e["scene"] == "all scenes" and np.isfinite(scale_effect(e)[1])]
+    pooled_changed = [e for e in pooled_tested if changes_with_scale(e)]
+    few_seeds = [e for e in per_scene if len(e["lite_same"].differences) >= 2]
+    seeds_only = [e for e in few_seeds if e["lite"].verdict != e["lite_same"].verdict]
     shown = metrics_of(by_scale["lite"] + by_scale["paper"])
     means = {m: scores(by_scale, m) for m in ("psnr", "psnr_clean", "f1", "chamfer") if m in shown}
     out += ["Each variant's mean over the steps, averaged over those scenes and seeds (compare the variants within a "
@@ -189,9 +193,12 @@ def markdown_report(by_scale: dict[str, list[dict]]) -> str:
                                        for m in means) + " |" for v in VARIANTS], ""]
     out += [f"STAIR's paired difference changes with scale (Welch's test against lite's, p < {ALPHA}) in {len(changed)} of "
             f"the {len(tested)} per-scene comparisons that have two pairs at the paper scale (about {ALPHA * len(tested):.1f} "
-            f"expected by chance alone); lite's own verdict changes with only as many seeds as the paper study has in "
-            f"{len(seeds_only)} of {len(per_scene)}. Each cell: the paired difference (STAIR minus the other), the pairs, p "
-            "and the verdict (n.s.: not significant); the last column the paper scale's difference minus lite's.", ""]
+            f"expected by chance alone), and in {len(pooled_changed)} of the {len(pooled_tested)} pooled over the scenes "
+            "(\"all scenes\": a pair is a scene's seed, so with few seeds a scene their spread is mostly the scenes'); "
+            f"lite's own verdict over only the paper study's seeds differs from its verdict over all seeds in "
+            f"{len(seeds_only)} of the {len(few_seeds)} per-scene comparisons with two such seeds. Each cell: the paired "
+            "difference (STAIR minus the other), the pairs, p and the verdict (n.s.: not significant; untested: fewer than "
+            "two pairs); the last column the paper scale's difference minus lite's.", ""]
     for claim, what in CLAIMS.items():
         mine = [e for e in entries if e["claim"] == claim]
         out += [f"### Claim {claim}: {what}", "",

@@ -2,7 +2,7 @@
 
   scenes   list the shipped scenes
   render   render a scene from a few views into a figure (the simulated world)
-  fit      fit a field to fixed views of a scene and report target-only PSNR and mesh F1
+  fit      fit a map (the field, or STE's voxel map) to fixed views of a scene; report target-only PSNR and mesh F1
   run      one active reconstruction mission (planner, scene, seed) with per-step metrics
   sweep    missions over scenes x planner variants x seeds (resumable), then the results table and plots
   report   the results table, curves and summary of a sweep folder

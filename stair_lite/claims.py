@@ -209,6 +209,15 @@ def hidden_target_fraction(scene_name: str, views: np.ndarray, intrinsics: Intri
     return 1.0 - visible / total if total else 0.0
 
 
+TOO_FEW_PAIRS = "too few pairs"  # what reports show instead of a verdict over one seed: no spread to test against
+
+
+def shown_verdict(c: Comparison) -> str:
+    """The verdict as the reports show it: ``TOO_FEW_PAIRS`` for a comparison of fewer than two pairs (its p-value is
+    undefined; ``verdict`` counts it as not significant)."""
+    return c.verdict if len(c.differences) >= 2 else TOO_FEW_PAIRS
+
+
 def tally(comparisons: list[Comparison]) -> dict[str, int]:
     """How many comparisons got each verdict."""
     verdicts = [c.verdict for c in comparisons]
@@ -245,13 +254,14 @@ def _table(comparisons: list[Comparison]) -> list[str]:
         a, b, d = c.claimed_scores, c.other_scores, METRICS[c.metric].digits
         lines.append(f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} ± {a.std():.{d}f} | "
                      f"{c.other} {b.mean():.{d}f} ± {b.std():.{d}f} | {c.difference:+.{d}f} ± {c.differences.std():.{d}f} "
-                     f"(n={len(a)}) | {c.p_value:.3f} | {c.verdict} |")
+                     f"(n={len(a)}) | {f'{c.p_value:.3f}' if len(a) >= 2 else '-'} | {shown_verdict(c)} |")
     return lines
 
 
 def _count(comparisons: list[Comparison]) -> str:
-    t = tally(comparisons)
-    return f"holds in {t['holds']} of {len(comparisons)}, reversed in {t['reversed']}, not significant in {t['not significant']}"
+    t, few = tally(comparisons), sum(shown_verdict(c) == TOO_FEW_PAIRS for c in comparisons)
+    return (f"holds in {t['holds']} of {len(comparisons)}, reversed in {t['reversed']}, not significant in "
+            f"{t['not significant'] - few}" + (f", {TOO_FEW_PAIRS} in {few}" if few else ""))
 
 
 def markdown_report(rows, ablation_rows=None, sight: dict | None = None) -> str:

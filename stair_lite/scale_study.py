@@ -28,14 +28,15 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from .claims import ALPHA, Comparison, claim_one, compare, metrics_of, scenes_of, seeds_of
+from .claims import (ALPHA, TOO_FEW_PAIRS, Comparison, claim_one, compare, metrics_of, scenes_of, seeds_of,
+                     shown_verdict)
 from .experiments import RESULTS_DIR, collect
 from .metrics import METRICS
 
 SCALES = {"lite": "comparison_lite", "paper": "comparison_paper"}  # scale -> its comparison's folder
 VARIANTS = ("stair", "exploration", "fixed", "max_distance", "ste")  # what the paper-scale study runs
 CLAIMS = {"(i)": "STAIR vs the strongest implicit baseline at lite", "(ii)": "STAIR vs STE"}
-SHORT = {"holds": "holds", "reversed": "reversed", "not significant": "n.s."}
+SHORT = {"holds": "holds", "reversed": "reversed", "not significant": "n.s.", TOO_FEW_PAIRS: TOO_FEW_PAIRS}
 
 
 def scale_rows(root: Path = RESULTS_DIR, log=print) -> dict[str, list[dict]]:
@@ -147,14 +148,13 @@ def scores(by_scale: dict[str, list[dict]], metric: str) -> dict[tuple[str, str]
 def _cell(c: Comparison) -> str:
     d, p = METRICS[c.metric].digits, (f"{c.p_value:.3f}" if len(c.differences) >= 2 else "-")
     against = f" vs {c.other}" if c.other != "ste" else ""
-    verdict = SHORT[c.verdict] if len(c.differences) >= 2 else "untested"  # one pair has no spread to test against
-    return f"{c.difference:+.{d}f}{against} (n={len(c.differences)}, p = {p}) {verdict}"
+    return f"{c.difference:+.{d}f}{against} (n={len(c.differences)}, p = {p}) {SHORT[shown_verdict(c)]}"
 
 
 def _effect(entry: dict) -> str:
     delta, p = scale_effect(entry)
     d = METRICS[entry["metric"]].digits
-    return f"{delta:+.{d}f} (p = {p:.3f}) " + ("**yes**" if p < ALPHA else "no") if np.isfinite(p) else f"{delta:+.{d}f} (-) untested"
+    return f"{delta:+.{d}f} (p = {p:.3f}) " + ("**yes**" if p < ALPHA else "no") if np.isfinite(p) else f"{delta:+.{d}f} (-) {TOO_FEW_PAIRS}"
 
 
 def _missions(rows: list[dict]) -> int:
@@ -197,8 +197,8 @@ def markdown_report(by_scale: dict[str, list[dict]]) -> str:
             "(\"all scenes\": a pair is a scene's seed, so with few seeds a scene their spread is mostly the scenes'); "
             f"lite's own verdict over only the paper study's seeds differs from its verdict over all seeds in "
             f"{len(seeds_only)} of the {len(few_seeds)} per-scene comparisons with two such seeds. Each cell: the paired "
-            "difference (STAIR minus the other), the pairs, p and the verdict (n.s.: not significant; untested: fewer than "
-            "two pairs); the last column the paper scale's difference minus lite's.", ""]
+            "difference (STAIR minus the other), the pairs, p and the verdict (n.s.: not significant; "
+            f"{TOO_FEW_PAIRS}: fewer than two); the last column the paper scale's difference minus lite's.", ""]
     for claim, what in CLAIMS.items():
         mine = [e for e in entries if e["claim"] == claim]
         out += [f"### Claim {claim}: {what}", "",

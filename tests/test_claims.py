@@ -119,6 +119,15 @@ def test_claim_three_and_the_report():
     assert "holds in 2 of 2" in report and "Claim (iii)" in report and "missions that saw" in report.lower()
 
 
+def test_a_report_over_one_seed_says_too_few_pairs_instead_of_a_verdict():
+    """One seed gives a difference but no p-value: the report says so rather than "not significant"."""
+    one_seed = fake_rows({"stair": 20.0, "exploration": 18.0, "fixed": 19.0, "max_distance": 15.0, "ste": 18.0}, seeds=1)
+    report = markdown_report(one_seed)
+    assert "(n=1) | - | too few pairs |" in report and "| nan |" not in report
+    assert "not significant in 0, too few pairs in 2" in report  # claim (i), psnr and f1 on the one scene
+    assert "too few pairs" not in markdown_report(fake_rows({"stair": 20.0, "fixed": 19.0, "ste": 18.0}))
+
+
 def test_object_pixels_sees_the_hidden_chair_only_from_the_side():
     counts = object_pixels("ablation_two_chairs", 2, np.array([TOP_VIEW, (0.2, 4.0)]))
     assert counts[0] == 0 and counts[1] > 50

@@ -64,8 +64,8 @@ def test_an_effect_needs_two_pairs_at_the_paper_scale():
     assert all(np.isnan(scale_effect(e)[1]) and not changes_with_scale(e) for e in per_scene)
     report = markdown_report({"lite": study(LITE, seeds=8), "paper": study(LITE, seeds=1)})
     assert "in 0 of the 0 per-scene comparisons that have two pairs" in report
-    assert "(-) untested" in report and "(-) no" not in report  # no verdict on the scale effect without two pairs
-    assert "(n=1, p = -) untested" in report and "(n=1, p = -) n.s." not in report  # nor on one pair
+    assert "(-) too few pairs" in report and "(-) no" not in report  # no verdict on the scale effect without two pairs
+    assert "(n=1, p = -) too few pairs" in report and "(n=1, p = -) n.s." not in report  # nor on one pair
 
 
 def test_only_whole_seeds_of_the_paper_study_count():

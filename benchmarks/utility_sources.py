@@ -6,9 +6,12 @@ candidates and for a few views spread around the scene, the planning render of E
 how many rays the target mask keeps, U_et and U_er, the share of U_et from lattice vertices the planning snapshot marks
 unknown (no measured ray reached them: they carry the prior occupancy ``unknown_occupancy``), the share of U_et from
 samples within ``--near`` metres of the candidate camera, and the transmittance where the target rays first meet an
-unknown vertex. (RESULTS.md, "A lead, from seed 0 alone".)
+unknown vertex. With ``--unknown-within R``, also where the planner's best next views go when the unreached vertices
+farther than R metres from the cube's centre count as empty instead (a trial of marking as unknown only the volume a
+mission has to reconstruct). (RESULTS.md, "A lead, from seed 0 alone".)
 
 Run: .venv/bin/python benchmarks/utility_sources.py --mission FOLDER [--best 2] [--near 0.5] [--elevation 30]
+     [--unknown-within 1.5]
 """
 import argparse
 import inspect
@@ -24,7 +27,7 @@ from stair_lite.classes import BACKGROUND, NUM_CLASSES
 from stair_lite.geometry import pixel_rays, view_to_pose
 from stair_lite.planners import far_enough, make_planner
 from stair_lite.rendering import compositing_weights, ray_box_intersection, sample_along_rays
-from stair_lite.utility import FieldSnapshot, render_uncertainty
+from stair_lite.utility import FieldSnapshot, render_uncertainty, score_views
 
 # the candidate renders' near plane, as the planner's scores take it
 NEAR = inspect.signature(render_uncertainty).parameters["near"].default
@@ -63,6 +66,8 @@ def main():
     parser.add_argument("--best", type=int, default=2, help="how many of the planner's best-rated candidates to take apart")
     parser.add_argument("--near", type=float, default=0.5, help="[m] the distance from the camera counted as near it")
     parser.add_argument("--elevation", type=float, default=30.0, help="[deg] of the spread views (every 60 deg of azimuth)")
+    parser.add_argument("--unknown-within", type=float, default=None, help="[m] also score the candidates with the "
+                        "unreached vertices farther than this from the cube's centre counted as empty")
     args = parser.parse_args()
     torch.set_num_threads(1)
     with tempfile.TemporaryDirectory() as copy_to:
@@ -94,6 +99,13 @@ def main():
                   f"U_er {s['U_er']:8.1f}; of U_et {s['unknown share']:.0%} from unknown vertices, "
                   f"{s['near-camera share']:.0%} within {args.near} m of the camera; {s['meet unknown']} target rays "
                   f"meet the unknown, at transmittance {s['T at the unknown']:.2f} (median)")
+        if args.unknown_within is not None:
+            far = unknown & torch.as_tensor(np.linalg.norm(snapshot.lattice.points().numpy(), axis=1) > args.unknown_within)
+            snapshot.table[far, :2] = 0.0  # occupancy and entropy: empty
+            scores = score_views(snapshot, decision.candidates, targets, planner.intrinsics, plan.candidate_samples, options)
+            best = [i for i in np.argsort(-scores.utility) if allowed[i]][:5]
+            print(f"with the unreached vertices beyond {args.unknown_within} m counted as empty, the five best next views "
+                  f"(el, az) [deg]: {[tuple(np.degrees(decision.candidates[i]).round().astype(int).tolist()) for i in best]}")
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ The mission's planner (its variant, its seed) scores its candidates on the resto
 candidates and for a few views spread around the scene, the planning render of Eqs. 10-14 is taken apart ray by ray:
 how many rays the target mask keeps, U_et and U_er, the share of U_et from lattice vertices the planning snapshot marks
 unknown (no measured ray reached them: they carry the prior occupancy ``unknown_occupancy``), the share of U_et from
-samples within ``--near`` metres of the candidate camera, and the transmittance where the target rays first meet an
+samples within ``--near`` metres of the candidate camera (and that of U_er), and the transmittance where the target rays first meet an
 unknown vertex. With ``--unknown-within R``, also where the planner's best next views go when the unreached vertices
 farther than R metres from the cube's centre count as empty instead (a trial of marking as unknown only the volume a
 mission has to reconstruct). (RESULTS.md, "A lead, from seed 0 alone".)
@@ -56,6 +56,7 @@ def sources(snapshot: FieldSnapshot, intrinsics, view, n_samples: int, targets, 
     return {"target rays": int(target.sum()), "U_et": float(u_et), "U_er": float(part.sum()),
             "unknown share": float(part[target][is_unknown[target]].sum() / u_et) if u_et > 0 else 0.0,
             "near-camera share": float(part[target][distance[target] <= near].sum() / u_et) if u_et > 0 else 0.0,
+            "U_er near-camera share": float(part[distance <= near].sum() / part.sum()) if part.sum() > 0 else 0.0,
             "meet unknown": int(meets.sum()),
             "T at the unknown": float(transmittance[meets, first[meets]].median()) if meets.any() else float("nan")}
 
@@ -97,8 +98,8 @@ def main():
             el, az = np.degrees(view)
             print(f"{label:8s} el {el:5.1f} az {az:6.1f}: {s['target rays']:5d} target rays, U_et {s['U_et']:8.1f}, "
                   f"U_er {s['U_er']:8.1f}; of U_et {s['unknown share']:.0%} from unknown vertices, "
-                  f"{s['near-camera share']:.0%} within {args.near} m of the camera; {s['meet unknown']} target rays "
-                  f"meet the unknown, at transmittance {s['T at the unknown']:.2f} (median)")
+                  f"{s['near-camera share']:.0%} within {args.near} m of the camera (of U_er {s['U_er near-camera share']:.0%}); "
+                  f"{s['meet unknown']} target rays meet the unknown, at transmittance {s['T at the unknown']:.2f} (median)")
         if args.unknown_within is not None:
             far = unknown & torch.as_tensor(np.linalg.norm(snapshot.lattice.points().numpy(), axis=1) > args.unknown_within)
             snapshot.table[far, :2] = 0.0  # occupancy and entropy: empty

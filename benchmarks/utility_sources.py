@@ -1,7 +1,8 @@
 """Where a candidate view's utility comes from, on the state of a stored mission (a results folder with its checkpoint,
 e.g. one of the paper-scale comparison's on the machine that ran it: checkpoints are not committed).
 
-The mission's planner (its variant, its seed) scores its candidates on the restored map; for its best-rated allowed
+First the share of the cube's lattice vertices that no measured ray reached, by distance from the cube's centre. Then
+the mission's planner (its variant, its seed) scores its candidates on the restored map; for its best-rated allowed
 candidates and for a few views spread around the scene, the planning render of Eqs. 10-14 is taken apart ray by ray:
 how many rays the target mask keeps, U_et and U_er, the share of U_et from lattice vertices the planning snapshot marks
 unknown (no measured ray reached them: they carry the prior occupancy ``unknown_occupancy``), the share of U_et from

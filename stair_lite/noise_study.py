@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .claims import TOO_FEW_PAIRS, Comparison, compare, per_seed_scores, scenes_of, seeds_of
+from .claims import TOO_FEW_PAIRS, Comparison, compare, per_seed_scores, scenes_of, seeds_of, shown_verdict
 from .experiments import RESULTS_DIR, collect
 from .metrics import METRICS as REGISTERED_METRICS
 
@@ -72,7 +72,8 @@ def per_scene(rows: list[dict], metric: str, claimed: str, other: str) -> list[C
 
 def _verdict(c: Comparison, words: dict[str, str] = WORDS) -> str:
     """The verdict in words; one pair has no spread to test against."""
-    return words[c.verdict] if len(c.differences) >= 2 else TOO_FEW_PAIRS
+    shown = shown_verdict(c)
+    return shown if shown == TOO_FEW_PAIRS else words[shown]
 
 
 def _line(c: Comparison, words: dict[str, str] = WORDS) -> str:

@@ -7,14 +7,15 @@ candidates and for a few views spread around the scene, the planning render of E
 how many rays the target mask keeps, U_et and U_er, the share of U_et from lattice vertices the planning snapshot marks
 unknown (no measured ray reached them: they carry the prior occupancy ``unknown_occupancy``), the share of U_et from
 samples within ``--near`` metres of the candidate camera (and that of U_er), and the transmittance where the target rays first meet an
-unknown vertex. With ``--unknown-within R``, also where the planner's best next views go when the unreached vertices
-farther than R metres from the cube's centre count as empty instead (a trial of marking as unknown only the volume a
-mission has to reconstruct). (RESULTS.md, "A lead, from seed 0 alone".)
+unknown vertex. With ``--unknown-within R``, also where the planner's best next views go when only the unreached vertices
+within R metres of the cube's centre are marked (``UtilityOptions.unknown_within``; ``stair_volume`` marks the ball
+inscribed in the cube, R = 1.5). (RESULTS.md, "A lead, from seed 0 alone".)
 
 Run: .venv/bin/python benchmarks/utility_sources.py --mission FOLDER [--best 2] [--near 0.5] [--elevation 30]
      [--unknown-within 1.5]
 """
 import argparse
+import dataclasses
 import inspect
 import tempfile
 from pathlib import Path
@@ -69,7 +70,7 @@ def main():
     parser.add_argument("--near", type=float, default=0.5, help="[m] the distance from the camera counted as near it")
     parser.add_argument("--elevation", type=float, default=30.0, help="[deg] of the spread views (every 60 deg of azimuth)")
     parser.add_argument("--unknown-within", type=float, default=None, help="[m] also score the candidates with the "
-                        "unreached vertices farther than this from the cube's centre counted as empty")
+                        "unknown marked only within this distance of the cube's centre")
     args = parser.parse_args()
     torch.set_num_threads(1)
     with tempfile.TemporaryDirectory() as copy_to:
@@ -107,13 +108,12 @@ def main():
                   f"{s['near-camera share']:.0%} within {args.near} m of the camera (of U_er {s['U_er near-camera share']:.0%}); "
                   f"{s['meet unknown']} target rays meet the unknown, at transmittance {s['T at the unknown']:.2f} (median)")
         if args.unknown_within is not None:
-            far = unknown & torch.as_tensor(np.linalg.norm(snapshot.lattice.points().numpy(), axis=1) > args.unknown_within)
-            snapshot.table[far, :2] = 0.0  # occupancy and entropy: empty
-            scores = score_views(snapshot, decision.candidates, targets, planner.intrinsics, plan.candidate_samples, options)
+            within = dataclasses.replace(options, unknown_within=args.unknown_within)
+            scores = score_views(FieldSnapshot.for_planning(field, within, targets), decision.candidates, targets,
+                                 planner.intrinsics, plan.candidate_samples, within)
             best = [i for i in np.argsort(-scores.utility) if allowed[i]][:5]
-            print(f"with the unreached vertices beyond {args.unknown_within} m counted as empty, the five best next views "
-                  f"(el, az) [deg]: {[tuple(np.degrees(decision.candidates[i]).round().astype(int).tolist()) for i in best]}")
-
+            print(f"with the unknown marked only within {args.unknown_within} m of the cube's centre, the five best next "
+                  f"views (el, az) [deg]: {[tuple(np.degrees(decision.candidates[i]).round().astype(int).tolist()) for i in best]}")
 
 if __name__ == "__main__":
     main()

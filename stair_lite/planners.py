@@ -39,6 +39,7 @@ from .geometry import (
     random_hemisphere,
     view_to_position,
 )
+from .lattice import CUBE_BOUND
 from .utility import FieldSnapshot, Scores, UtilityOptions, poses_in_chunks, render_novel_target_surface, score_views
 
 # The reference code rejects candidates within cosine distance 0.01 (about 8.1 degrees) of a visited view.
@@ -406,6 +407,11 @@ register_planner("stair_reference", UtilityPlanner, delete_background=True, min_
 register_planner("stair_unmarked", UtilityPlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 register_planner("stair_unknown", UtilityPlanner, unknown_occupancy=PlanConfig.unknown_occupancy,
                  unknown_target_radius=PlanConfig.unknown_target_radius)
+# STAIR whose planning renders mark the unknown only in the ball inscribed in the scene cube, the volume a mission must
+# reconstruct (every shipped scene's objects lie within 1.44 m of its centre): the cube's corners reach out among the
+# cameras (RESULTS, "A lead"), and the ball is the same from every azimuth
+register_planner("stair_volume", UtilityPlanner, unknown_occupancy=PlanConfig.unknown_occupancy,
+                 unknown_target_radius=PlanConfig.unknown_target_radius, unknown_within=CUBE_BOUND)
 register_planner("coverage", CoveragePlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 register_planner("fisher", FisherPlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 

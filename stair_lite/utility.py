@@ -55,6 +55,8 @@ class UtilityOptions:
     0: unknown space carries no entropy.
     ``unknown_target_radius``: unknown vertices within this distance [m] of a target surface render with that
     target's class, so that the unseen side of a target counts as exploitation (0: off).
+    ``unknown_within``: mark only the unreached vertices within this distance [m] of the scene's centre, the volume a
+    mission must reconstruct (None: the whole scene cube, whose corners reach out among the cameras).
     ``min_ray_opacity``: rays whose accumulated opacity is below this carry no uncertainty (the reference code: 0.01).
     ``min_occupancy``: samples whose occupancy is below this count as empty (the reference code: 0.01, below which it
     computes no class logits and so deletes the sample as background).
@@ -68,6 +70,7 @@ class UtilityOptions:
     semantic_weight: float = 0.0
     unknown_occupancy: float = PlanConfig.unknown_occupancy
     unknown_target_radius: float = PlanConfig.unknown_target_radius
+    unknown_within: float | None = None
     min_ray_opacity: float = 0.0
     min_occupancy: float = 0.0
 
@@ -85,6 +88,9 @@ class UtilityOptions:
             raise ValueError(f"unknown_occupancy must be a probability in [0, 1), got {self.unknown_occupancy!r}")
         if not (np.isfinite(self.unknown_target_radius) and self.unknown_target_radius >= 0):
             raise ValueError(f"unknown_target_radius must be a finite distance >= 0, got {self.unknown_target_radius!r}")
+        if self.unknown_within is not None and not (np.isfinite(self.unknown_within) and self.unknown_within > 0):
+            raise ValueError(f"unknown_within must be a finite distance > 0 (or None: the whole cube), got "
+                             f"{self.unknown_within!r}")
         if not 0.0 <= self.min_occupancy < 1.0:
             raise ValueError(f"min_occupancy must be in [0, 1), got {self.min_occupancy!r}")
         if not 0.0 <= self.min_ray_opacity < 1.0:
@@ -100,8 +106,8 @@ class FieldSnapshot:
     (closer to the field, about 3x slower)."""
 
     def __init__(self, field, resolution: int | None = None, trilinear: bool = False, unknown_occupancy: float = 0.0,
-                 unknown_targets: tuple[tuple[int, ...], float] | None = None, novelty: torch.Tensor | None = None,
-                 normals: bool = False):
+                 unknown_targets: tuple[tuple[int, ...], float] | None = None, unknown_within: float | None = None,
+                 novelty: torch.Tensor | None = None, normals: bool = False):
         self.lattice = Lattice(resolution or field.lattice.resolution, field.lattice.bound)
         self.device, self.trilinear = field.device, trilinear
         q = field.query(self.lattice.points(field.device))
@@ -110,6 +116,8 @@ class FieldSnapshot:
             if self.lattice.resolution != field.lattice.resolution:
                 raise ValueError("a snapshot that marks the unknown needs the field's own lattice resolution")
             unknown = ~field.reached
+            if unknown_within is not None:  # only the volume to reconstruct: a ball about the scene's centre
+                unknown &= self.lattice.points(field.device).norm(dim=1) <= unknown_within
             occ = torch.where(unknown, torch.full_like(occ, unknown_occupancy), occ)
             if unknown_targets:
                 sem = _unknown_near_targets_as_targets(self.lattice, occ, sem, unknown, *unknown_targets)
@@ -129,8 +137,8 @@ class FieldSnapshot:
         """The snapshot a planner with ``options`` reads (the unknown marked as the options say; ``novelty`` and
         ``normals`` for the coverage and Fisher utilities)."""
         near = (tuple(targets), options.unknown_target_radius) if options.unknown_target_radius > 0 else None
-        return cls(field, unknown_occupancy=options.unknown_occupancy, unknown_targets=near, novelty=novelty,
-                   normals=normals)
+        return cls(field, unknown_occupancy=options.unknown_occupancy, unknown_targets=near,
+                   unknown_within=options.unknown_within, novelty=novelty, normals=normals)
 
     def lookup(self, points: torch.Tensor) -> torch.Tensor:
         """(..., 2 + P) values at each point: of the nearest lattice vertex, or trilinearly interpolated."""

@@ -292,3 +292,42 @@ def test_a_view_onto_unseen_space_scores_above_a_view_onto_seen_space():
                         for name in ("stair", "stair_unmarked"))
     assert marked[0] > 1.5 * marked[1]
     assert unmarked[0] == pytest.approx(unmarked[1], rel=0.05)
+
+
+class ShellUnreachedField(SlabField):
+    """An opaque target slab at the centre; measured rays reached every vertex but those farther than ``inner`` from
+    the scene's centre on the +x side (the outer shell near the cameras a mission has used there)."""
+
+    def __init__(self, inner: float):
+        super().__init__(1.0, z0=0.0, z1=0.4)
+        points = self.lattice.points()
+        self.reached = ~((points.norm(dim=1) > inner) & (points[:, 0] > 0))
+        self.surface_views = self.surface_rays = torch.zeros(self.lattice.resolution**3)
+
+
+def test_the_unknown_is_marked_only_within_the_volume_to_reconstruct():
+    """``unknown_within`` R: the planning snapshot gives the prior occupancy to unreached vertices within R of the
+    scene's centre only; beyond, they keep the field's own (empty) occupancy. Without it, the whole cube is marked."""
+    field = ShellUnreachedField(inner=1.2)
+    points = field.lattice.points()
+    radius, unreached = points.norm(dim=1), ~field.reached
+    ball = FieldSnapshot(field, unknown_occupancy=0.5, unknown_within=1.5).table[:, 0]
+    cube = FieldSnapshot(field, unknown_occupancy=0.5).table[:, 0]
+    shell, beyond = unreached & (radius <= 1.5), unreached & (radius > 1.5)
+    assert shell.any() and beyond.any()
+    assert torch.all(ball[shell] == 0.5) and torch.all(cube[shell] == 0.5)
+    assert torch.all(ball[beyond] == 0.0) and torch.all(cube[beyond] == 0.5)
+    with pytest.raises(ValueError, match="unknown_within must be a finite distance > 0"):
+        UtilityOptions(unknown_within=-1.0)
+
+
+def test_unknown_among_the_cameras_pulls_views_only_when_the_whole_cube_is_marked():
+    """The unreached cube beyond the inscribed ball on the +x side (where the cameras a mission used stand): marking
+    the whole cube (``stair``) makes a camera there (azimuth 0) score far above its mirror image at azimuth 180, as its
+    target rays start in unknown space; ``stair_volume`` (only the ball inscribed in the cube) scores the two alike."""
+    views = np.array([[np.radians(40), 0.0], [np.radians(40), np.pi]])
+    cube, ball = (make_planner(name, get_preset("lite"), seed=0).utility(ShellUnreachedField(inner=1.5), views,
+                                                                         np.zeros((0, 2)), (1,))
+                  for name in ("stair", "stair_volume"))
+    assert cube[0] > 1.5 * cube[1]
+    assert ball[0] == pytest.approx(ball[1], rel=0.05)

@@ -13,7 +13,7 @@ import argparse
 import numpy as np
 
 import stair_lite  # noqa: F401
-from stair_lite.claims import compare, metrics_of, scenes_of, shown_verdict
+from stair_lite.claims import compare, metrics_of, scenes_of
 from stair_lite.experiments import collect
 from stair_lite.geometry import view_spread
 from stair_lite.metrics import METRICS
@@ -41,8 +41,8 @@ def main():
             d = METRICS[metric].digits
             per_scene = [compare(rows, s, metric, args.variant, other) for s in scenes]
             print(f"vs {other:12s} {metric:10s} all scenes {c.difference:+.{d}f} (n={len(c.differences)}, "
-                  f"p = {c.p_value:.3f}) {shown_verdict(c)} | " +
-                  " | ".join(f"{s}: {x.difference:+.{d}f} {shown_verdict(x)}" for s, x in zip(scenes, per_scene)))
+                  f"p = {c.p_value:.3f}) {c.verdict} | " +
+                  " | ".join(f"{s}: {x.difference:+.{d}f} {x.verdict}" for s, x in zip(scenes, per_scene)))
     for variant in [args.variant, *others]:
         spread, elevation = [], []
         for scene in scenes:

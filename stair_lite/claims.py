@@ -15,8 +15,9 @@ differences over the seeds both variants ran:
   whether each mission ever saw the occluded chair.
 
 A verdict is "holds" (the claimed side is better, p < ALPHA), "reversed" (the other side is better,
-p < ALPHA) or "not significant". Better is higher, except for the chamfer distance. ``seeds_needed``
-gives the number of seeds a paired test needs to detect a difference of a given size.
+p < ALPHA), "not significant", or "too few pairs" (one seed: no spread to test against). Better is higher, except
+for the chamfer distance. ``seeds_needed`` gives the number of seeds a paired test needs to detect a difference of a
+given size.
 """
 from __future__ import annotations
 
@@ -32,6 +33,8 @@ from .scenes import build_scene, load_scene_spec
 from .simulator import Simulator
 
 ALPHA = 0.05
+TOO_FEW_PAIRS = "too few pairs"  # the verdict over one seed: no spread to test against
+VERDICTS = ("holds", "not significant", "reversed", TOO_FEW_PAIRS)
 IMPLICIT_BASELINES = ("exploration", "fixed", "max_distance", "uniform")
 
 
@@ -98,6 +101,10 @@ class Comparison:
 
     @property
     def verdict(self) -> str:
+        """"holds" or "reversed" (p < ALPHA, by the sign of the difference), "not significant", or ``TOO_FEW_PAIRS``
+        with fewer than two pairs (no spread to test against)."""
+        if len(self.differences) < 2:
+            return TOO_FEW_PAIRS
         if not self.p_value < ALPHA:
             return "not significant"
         return "holds" if (self.difference > 0) != METRICS[self.metric].lower_is_better else "reversed"
@@ -209,19 +216,10 @@ def hidden_target_fraction(scene_name: str, views: np.ndarray, intrinsics: Intri
     return 1.0 - visible / total if total else 0.0
 
 
-TOO_FEW_PAIRS = "too few pairs"  # what reports show instead of a verdict over one seed: no spread to test against
-
-
-def shown_verdict(c: Comparison) -> str:
-    """The verdict as the reports show it: ``TOO_FEW_PAIRS`` for a comparison of fewer than two pairs (its p-value is
-    undefined; ``verdict`` counts it as not significant)."""
-    return c.verdict if len(c.differences) >= 2 else TOO_FEW_PAIRS
-
-
 def tally(comparisons: list[Comparison]) -> dict[str, int]:
     """How many comparisons got each verdict."""
     verdicts = [c.verdict for c in comparisons]
-    return {v: verdicts.count(v) for v in ("holds", "not significant", "reversed")}
+    return {v: verdicts.count(v) for v in VERDICTS}
 
 
 HIDDEN_CHAIR = {"ablation_two_chairs": 2, "ablation_hidden_chair": 2}  # ablation scene -> index of its occluded chair
@@ -254,14 +252,14 @@ def _table(comparisons: list[Comparison]) -> list[str]:
         a, b, d = c.claimed_scores, c.other_scores, METRICS[c.metric].digits
         lines.append(f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} ± {a.std():.{d}f} | "
                      f"{c.other} {b.mean():.{d}f} ± {b.std():.{d}f} | {c.difference:+.{d}f} ± {c.differences.std():.{d}f} "
-                     f"(n={len(a)}) | {f'{c.p_value:.3f}' if len(a) >= 2 else '-'} | {shown_verdict(c)} |")
+                     f"(n={len(a)}) | {f'{c.p_value:.3f}' if len(a) >= 2 else '-'} | {c.verdict} |")
     return lines
 
 
 def _count(comparisons: list[Comparison]) -> str:
-    t, few = tally(comparisons), sum(shown_verdict(c) == TOO_FEW_PAIRS for c in comparisons)
+    t = tally(comparisons)
     return (f"holds in {t['holds']} of {len(comparisons)}, reversed in {t['reversed']}, not significant in "
-            f"{t['not significant'] - few}" + (f", {TOO_FEW_PAIRS} in {few}" if few else ""))
+            f"{t['not significant']}" + (f", {TOO_FEW_PAIRS} in {t[TOO_FEW_PAIRS]}" if t[TOO_FEW_PAIRS] else ""))
 
 
 def markdown_report(rows, ablation_rows=None, sight: dict | None = None) -> str:

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .claims import TOO_FEW_PAIRS, Comparison, compare, per_seed_scores, scenes_of, seeds_of, shown_verdict
+from .claims import TOO_FEW_PAIRS, Comparison, compare, per_seed_scores, scenes_of, seeds_of
 from .experiments import RESULTS_DIR, collect
 from .metrics import METRICS as REGISTERED_METRICS
 
@@ -31,8 +31,9 @@ AGAINST_STAIR = ("stair_semantic", "stair_soft")  # the utilities beyond the pap
 BASELINES = ("exploration", "max_distance")  # semantics-blind: STAIR is compared against each
 METRICS = ("psnr", "f1")
 STORED_STUDY = "lite"  # the study whose verdicts RESULTS.md and notebook 07 quote
-WORDS = {"holds": "helps", "reversed": "hurts", "not significant": "no significant difference"}
-STAIR_WORDS = {"holds": "STAIR better", "reversed": "STAIR worse", "not significant": "no significant difference"}
+WORDS = {"holds": "helps", "reversed": "hurts", "not significant": "no significant difference", TOO_FEW_PAIRS: TOO_FEW_PAIRS}
+STAIR_WORDS = {"holds": "STAIR better", "reversed": "STAIR worse", "not significant": "no significant difference",
+               TOO_FEW_PAIRS: TOO_FEW_PAIRS}
 
 
 def folder(level: str, root: Path = RESULTS_DIR, study: str = STORED_STUDY) -> Path:
@@ -71,9 +72,8 @@ def per_scene(rows: list[dict], metric: str, claimed: str, other: str) -> list[C
 
 
 def _verdict(c: Comparison, words: dict[str, str] = WORDS) -> str:
-    """The verdict in words; one pair has no spread to test against."""
-    shown = shown_verdict(c)
-    return shown if shown == TOO_FEW_PAIRS else words[shown]
+    """The verdict in words."""
+    return words[c.verdict]
 
 
 def _line(c: Comparison, words: dict[str, str] = WORDS) -> str:

@@ -28,8 +28,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from .claims import (ALPHA, TOO_FEW_PAIRS, Comparison, claim_one, compare, metrics_of, scenes_of, seeds_of,
-                     shown_verdict)
+from .claims import ALPHA, TOO_FEW_PAIRS, Comparison, claim_one, compare, metrics_of, scenes_of, seeds_of
 from .experiments import RESULTS_DIR, collect
 from .metrics import METRICS
 
@@ -148,7 +147,7 @@ def scores(by_scale: dict[str, list[dict]], metric: str) -> dict[tuple[str, str]
 def _cell(c: Comparison) -> str:
     d, p = METRICS[c.metric].digits, (f"{c.p_value:.3f}" if len(c.differences) >= 2 else "-")
     against = f" vs {c.other}" if c.other != "ste" else ""
-    return f"{c.difference:+.{d}f}{against} (n={len(c.differences)}, p = {p}) {SHORT[shown_verdict(c)]}"
+    return f"{c.difference:+.{d}f}{against} (n={len(c.differences)}, p = {p}) {SHORT[c.verdict]}"
 
 
 def _effect(entry: dict) -> str:

@@ -5,7 +5,7 @@ import pytest
 from dataclasses import replace
 
 from stair_lite.claims import (Comparison, claim_one, compare, claim_three, claim_two, hidden_target_fraction, markdown_report,
-                               object_pixels, per_seed_scores, tally)
+                               TOO_FEW_PAIRS, object_pixels, per_seed_scores, tally)
 from stair_lite.geometry import TOP_VIEW, Intrinsics
 from stair_lite.scenes import build_scene, load_scene_spec, save_scene_spec
 from stair_lite.simulator import Simulator
@@ -40,7 +40,7 @@ def test_verdicts_follow_the_paired_test():
     close = Comparison("s", "psnr", "x", "y", a, a + np.array([0.01, -0.02, 0.0, 0.01]))
     assert close.verdict == "not significant" and close.p_value > 0.5
     assert np.isnan(Comparison("s", "psnr", "x", "y", a[:1], b[:1]).p_value)  # one seed: no test
-    assert Comparison("s", "psnr", "x", "y", a[:1], b[:1]).verdict == "not significant"
+    assert Comparison("s", "psnr", "x", "y", a[:1], b[:1]).verdict == TOO_FEW_PAIRS
     with pytest.raises(ValueError, match="one score per seed on both sides"):
         Comparison("s", "psnr", "x", "y", a, b[:3])
 
@@ -83,7 +83,7 @@ def test_claim_one_compares_with_the_strongest_baseline():
     rows = fake_rows({"stair": 20.0, "exploration": 18.0, "fixed": 19.0, "max_distance": 15.0, "uniform": 10.0})
     comparisons = claim_one(rows)
     assert [c.other for c in comparisons] == ["fixed", "fixed"]
-    assert tally(comparisons) == {"holds": 2, "not significant": 0, "reversed": 0}
+    assert tally(comparisons) == {"holds": 2, "not significant": 0, "reversed": 0, TOO_FEW_PAIRS: 0}
 
 
 def test_claim_two_splits_mapping_and_planning():

@@ -3,9 +3,11 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 
+from ..claims import TOO_FEW_PAIRS
 from ..metrics import METRICS
 
-VERDICT_COLOURS = {"holds": "tab:green", "reversed": "tab:red", "not significant": "tab:grey"}
+VERDICT_COLOURS = {"holds": "tab:green", "reversed": "tab:red", "not significant": "tab:grey",
+                   TOO_FEW_PAIRS: "tab:grey"}
 
 
 def _difference(ax, x: float, c, hollow: bool = False) -> None:

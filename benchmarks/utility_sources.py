@@ -84,7 +84,7 @@ def main():
         unknown = ~field.reached if options.unknown_occupancy > 0 else torch.zeros_like(field.reached)
         allowed = far_enough(decision.candidates, visited)
         points = snapshot.lattice.points()
-        radius, above = torch.as_tensor(np.linalg.norm(points.numpy(), axis=1)), points[:, 2] > 0.05
+        radius, above = points.norm(dim=1), points[:, 2] > 0.05
         shells = [(0.0, 1.0), (1.0, 1.5), (1.5, 1.8), (1.8, 2.7)]
         print("unreached share of the vertices above the ground, by distance from the cube's centre: " + ", ".join(
             f"{lo}-{hi} m {float(unknown[(radius >= lo) & (radius < hi) & above].float().mean()):.0%}" for lo, hi in shells))

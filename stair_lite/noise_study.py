@@ -31,7 +31,8 @@ AGAINST_STAIR = ("stair_semantic", "stair_soft")  # the utilities beyond the pap
 BASELINES = ("exploration", "max_distance")  # semantics-blind: STAIR is compared against each
 METRICS = ("psnr", "f1")
 STORED_STUDY = "lite"  # the study whose verdicts RESULTS.md and notebook 07 quote
-WORDS = {"holds": "helps", "reversed": "hurts", "not significant": "no significant difference", TOO_FEW_PAIRS: TOO_FEW_PAIRS}
+WORDS = {"holds": "helps", "reversed": "hurts", "not significant": "no significant difference",
+         TOO_FEW_PAIRS: TOO_FEW_PAIRS}
 STAIR_WORDS = {"holds": "STAIR better", "reversed": "STAIR worse", "not significant": "no significant difference",
                TOO_FEW_PAIRS: TOO_FEW_PAIRS}
 

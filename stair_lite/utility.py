@@ -110,14 +110,15 @@ class FieldSnapshot:
                  novelty: torch.Tensor | None = None, normals: bool = False):
         self.lattice = Lattice(resolution or field.lattice.resolution, field.lattice.bound)
         self.device, self.trilinear = field.device, trilinear
-        q = field.query(self.lattice.points(field.device))
+        points = self.lattice.points(field.device)
+        q = field.query(points)
         occ, sem = q["occ"], q["sem"]
         if (unknown_occupancy > 0 or unknown_targets) and field.cfg.reached_only:
             if self.lattice.resolution != field.lattice.resolution:
                 raise ValueError("a snapshot that marks the unknown needs the field's own lattice resolution")
             unknown = ~field.reached
             if unknown_within is not None:  # only the volume to reconstruct: a ball about the scene's centre
-                unknown &= self.lattice.points(field.device).norm(dim=1) <= unknown_within
+                unknown &= points.norm(dim=1) <= unknown_within
             occ = torch.where(unknown, torch.full_like(occ, unknown_occupancy), occ)
             if unknown_targets:
                 sem = _unknown_near_targets_as_targets(self.lattice, occ, sem, unknown, *unknown_targets)

@@ -9,7 +9,9 @@ samples (1e6), and the nearest-distance scores, both with scipy's default KD-tre
 the evaluation takes them (``evaluation.point_tree``, queries in ``spatial_order``: the same scores; the figure is the
 ratio). Medians over ``--repeats``. For the renders, also what they sample: the
 live rays per view, the window samples and kept samples per live ray (``rendering.live_rays``, ``kept_window_samples``),
-and the time of reading the field at the kept samples of five views (what no cull of samples removes).
+the time of reading the field at the kept samples of five views (what no cull of samples removes), and the share of
+those samples that lie behind the point where their ray turned opaque (transmittance below 1e-4 in the composite
+without the ground's underside, the more transparent of the two): the most that stopping rays once opaque could save.
 
 Run: .venv/bin/python benchmarks/bench_evaluation.py [--repeats 3] [--views 100] [--preset paper] [--mission FOLDER]
 """
@@ -33,7 +35,7 @@ from stair_lite.geometry import TOP_VIEW, fibonacci_hemisphere
 from stair_lite.maps import IMPLICIT
 from stair_lite.mission import Mission, MissionConfig, World, build_map
 from stair_lite.results_folder import CHECKPOINT_FILE, METRICS_FILE
-from stair_lite.rendering import kept_window_samples, live_rays
+from stair_lite.rendering import compositing_weights, is_target, kept_window_samples, live_rays
 
 
 def timed(fn, repeats: int):
@@ -54,6 +56,26 @@ def stored_mission(folder: Path, copy_to: Path) -> Mission:
     config = {k: v for k, v in config.items() if k in MissionConfig.__dataclass_fields__}
     config["targets"] = tuple(config["targets"]) if config.get("targets") else None
     return Mission(MissionConfig(**config), out=copy_to, resume=True)
+
+
+@torch.no_grad()
+def share_behind_opaque(field, skip, kept_rays: torch.Tensor, kept_points: torch.Tensor, n_rays: int, targets,
+                        transmittance_below: float = 1e-4) -> float:
+    """The share of a view's kept samples (``kept_window_samples``) that lie behind the point where their ray's
+    transmittance fell below ``transmittance_below``, in the target-only composite without the volume below
+    ``GROUND_CUT_Z`` (its transmittance is never below the other composite's, so a sample behind that point is
+    behind it in both)."""
+    if len(kept_rays) == 0:
+        return 0.0
+    located = field.locate(kept_points)
+    occ = field.occupancy_at(located) * is_target(field.appearance_at(located)[1], targets)
+    lattice = skip.lattice
+    occ = occ * (lattice.axis(occ.device)[lattice.nearest_layer(kept_points[:, 2])] >= GROUND_CUT_Z)
+    per_ray = torch.bincount(kept_rays, minlength=n_rays)
+    slot = torch.arange(len(kept_rays)) - (torch.cumsum(per_ray, 0) - per_ray)[kept_rays]
+    dense = torch.zeros(n_rays, int(per_ray.max())).index_put_((kept_rays, slot), occ)
+    transmittance = compositing_weights(dense)[1][kept_rays, slot]  # before each sample
+    return float((transmittance < transmittance_below).float().mean())
 
 
 def cut_schedule_field(preset, scene: str):
@@ -100,7 +122,8 @@ def measure(args, preset, implicit, evaluator, targets, state: str):
     skip = implicit.target_skip_grid(targets)
     render_cfg = replace(implicit.trainer.render_cfg, n_samples=preset.eval.render_samples)
     sampled = [live_rays(skip, evaluator.intrinsics, [pose], render_cfg) for pose in poses[:5]]
-    kept = [kept_window_samples(skip, *rays[1:], render_cfg.n_samples)[1] for rays in sampled]
+    windows = [kept_window_samples(skip, *rays[1:], render_cfg.n_samples) for rays in sampled]
+    kept = [points for _, points in windows]
     n_live = sum(len(rays[0]) for rays in sampled)
     field = implicit.field
 
@@ -113,6 +136,8 @@ def measure(args, preset, implicit, evaluator, targets, state: str):
     t_read, _ = timed(read_field, args.repeats)
     t_five, _ = timed(lambda: list(implicit.target_only_renders(evaluator.intrinsics, poses[:5], targets, GROUND_CUT_Z)),
                       args.repeats)
+    behind = [share_behind_opaque(implicit.field, skip, ray, points, len(rays[0]), targets)
+              for (ray, points), rays in zip(windows, sampled)]
     t_mesh, mesh = timed(lambda: implicit.target_mesh(targets), args.repeats)
     n, seed = preset.eval.mesh_points, evaluator.seed + 1
     t_sample, pred = timed(lambda: sample_surface(mesh, n, seed), args.repeats)
@@ -138,6 +163,8 @@ def measure(args, preset, implicit, evaluator, targets, state: str):
           f"{sum(int((r[-1] - r[-2]).sum()) for r in sampled) / n_live:.1f} window samples, "
           f"{sum(len(k) for k in kept) / n_live:.1f} in kept cells")
     print(f"    reading the field at the kept samples of {len(kept)} views {t_read:.2f} s of their renders' {t_five:.2f} s")
+    print(f"    kept samples behind the point where their ray is opaque (T < 1e-4): {min(behind):.1%} to "
+          f"{max(behind):.1%} a view (the most that stopping rays once opaque could save)")
     print(f"  target mesh ({cfg.mesh_resolution}^3 lattice)       {t_mesh:7.2f} s")
     print(f"  surface samples ({n:.0e})         {t_sample:7.2f} s")
     print(f"  mesh scores, scipy's default tree {t_default:6.2f} s")

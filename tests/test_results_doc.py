@@ -28,7 +28,8 @@ def test_results_md_quotes_the_label_noise_verdicts():
     assert quoted("label noise") == computed, "RESULTS.md is stale: paste the output of `python -m stair_lite label-noise-claims`"
 
 
-@pytest.mark.parametrize("marker, folder", [("league", "headroom_league_lite"), ("league former", "headroom_league_lite_former")])
+@pytest.mark.parametrize("marker, folder", [("league", "headroom_league_lite"), ("league former", "headroom_league_lite_former"),
+                                            ("league paper", "headroom_league_paper")])
 def test_results_md_quotes_the_computed_league(marker, folder):
     from stair_lite.headroom import Headroom, league_markdown
 

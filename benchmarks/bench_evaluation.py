@@ -35,7 +35,7 @@ from stair_lite.geometry import TOP_VIEW, fibonacci_hemisphere
 from stair_lite.maps import IMPLICIT
 from stair_lite.mission import Mission, MissionConfig, World, build_map
 from stair_lite.results_folder import CHECKPOINT_FILE, METRICS_FILE
-from stair_lite.rendering import compositing_weights, is_target, kept_window_samples, live_rays
+from stair_lite.rendering import is_target, kept_compositing, kept_window_samples, live_rays
 
 
 def timed(fn, repeats: int):
@@ -71,11 +71,8 @@ def share_behind_opaque(field, skip, kept_rays: torch.Tensor, kept_points: torch
     occ = field.occupancy_at(located) * is_target(field.appearance_at(located)[1], targets)
     lattice = skip.lattice
     occ = occ * (lattice.axis(occ.device)[lattice.nearest_layer(kept_points[:, 2])] >= GROUND_CUT_Z)
-    per_ray = torch.bincount(kept_rays, minlength=n_rays)
-    slot = torch.arange(len(kept_rays)) - (torch.cumsum(per_ray, 0) - per_ray)[kept_rays]
-    dense = torch.zeros(n_rays, int(per_ray.max())).index_put_((kept_rays, slot), occ)
-    transmittance = compositing_weights(dense)[1][kept_rays, slot]  # before each sample
-    return float((transmittance < transmittance_below).float().mean())
+    index, ((_, transmittance),) = kept_compositing(kept_rays, n_rays, occ)
+    return float((transmittance[index] < transmittance_below).float().mean())  # before each sample
 
 
 def cut_schedule_field(preset, scene: str):

@@ -439,6 +439,18 @@ def kept_window_samples(skip: SkipGrid, origins, dirs, t_near, t_far, first, las
     return ray[kept], points[kept]
 
 
+def kept_compositing(ray: torch.Tensor, n_rays: int, *occupancies: torch.Tensor):
+    """Eq. 5 over flat samples (``ray``: each sample's ray, ascending, each ray's samples in order along it, as
+    ``kept_window_samples`` gives them). The samples of each ray are set side by side in a row, padded with o = 0 (a
+    factor 1 - o = 1). Returns the samples' places in those rows, an index (rows, slots), and for each occupancy (K,)
+    of the samples its weights and transmittance (n_rays, width): index them with it for the samples' own."""
+    per_ray = torch.bincount(ray, minlength=n_rays)
+    slot = torch.arange(len(ray), device=ray.device) - (torch.cumsum(per_ray, 0) - per_ray)[ray]
+    width = int(per_ray.max()) if len(ray) else 0
+    dense = [torch.zeros(n_rays, width, device=occ.device).index_put_((ray, slot), occ) for occ in occupancies]
+    return (ray, slot), [compositing_weights(d) for d in dense]
+
+
 def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, colour_weight_threshold):
     lattice, h, w = skip.lattice, intrinsics.height, intrinsics.width
     images = torch.ones(2, len(poses) * h * w, 3, device=field.device)  # the full and the cut composite of every ray
@@ -454,14 +466,8 @@ def _render_group_and_cut(field, intrinsics, poses, cfg, targets, skip, z_min, c
         f_rgb, f_sem = field.appearance_at(located)
         occ = field.occupancy_at(located) * is_target(f_sem, targets)
         above = lattice.axis(occ.device)[lattice.nearest_layer(points[:, 2])] >= z_min
-        # the kept samples of each ray side by side (their order along the ray kept), padded with o = 0
-        per_ray = torch.bincount(ray, minlength=n_rays)
-        slot = torch.arange(len(ray), device=field.device) - (torch.cumsum(per_ray, 0) - per_ray)[ray]
-        width = int(per_ray.max()) if len(ray) else 0
-        weights = []
-        for o_ in (occ, occ * above):
-            dense = torch.zeros(n_rays, width, device=field.device).index_put_((ray, slot), o_)
-            weights.append(compositing_weights(dense)[0][ray, slot])
+        index, composites = kept_compositing(ray, n_rays, occ, occ * above)
+        weights = [w[index] for w, _ in composites]
         active = ((weights[0] > colour_weight_threshold) | (weights[1] > colour_weight_threshold)) & (
             occ > cfg.colour_min_occupancy)
         rgb = field.colour_from(f_rgb[active], located.pe[active])

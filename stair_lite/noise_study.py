@@ -72,16 +72,11 @@ def per_scene(rows: list[dict], metric: str, claimed: str, other: str) -> list[C
             if set(seeds_of(rows, scene, claimed)) & set(seeds_of(rows, scene, other))]
 
 
-def _verdict(c: Comparison, words: dict[str, str] = WORDS) -> str:
-    """The verdict in words."""
-    return words[c.verdict]
-
-
 def _line(c: Comparison, words: dict[str, str] = WORDS) -> str:
     a, b, d = c.claimed_scores, c.other_scores, REGISTERED_METRICS[c.metric].digits
     p = f"{c.p_value:.3f}" if len(a) >= 2 else "-"
     return (f"| {c.scene} | {c.metric} | {c.claimed} {a.mean():.{d}f} | {c.other} {b.mean():.{d}f} | "
-            f"{c.difference:+.{d}f} ± {c.differences.std():.{d}f} (n={len(a)}) | {p} | {_verdict(c, words)} |")
+            f"{c.difference:+.{d}f} ± {c.differences.std():.{d}f} (n={len(a)}) | {p} | {words[c.verdict]} |")
 
 
 def _baselines(rows: list[dict]) -> list[str]:
@@ -90,7 +85,7 @@ def _baselines(rows: list[dict]) -> list[str]:
     if not pairs:
         return []
     return ["STAIR against the semantics-blind baselines, pooled over the scenes (the difference is STAIR minus "
-            "the baseline): " + "; ".join(f"{c.other} on {c.metric}: **{_verdict(c, STAIR_WORDS)}**" for c in pairs)
+            "the baseline): " + "; ".join(f"{c.other} on {c.metric}: **{STAIR_WORDS[c.verdict]}**" for c in pairs)
             + ".", "", "| scenes | metric | STAIR | baseline | paired difference | p | verdict |",
             "|---|---|---|---|---|---|---|", *[_line(c, STAIR_WORDS) for c in pairs], ""]
 
@@ -115,7 +110,7 @@ def markdown_report(by_level: dict[str, list[dict]]) -> str:
         if not table:
             out += ["No pair of a utility variant and STAIR has finished yet.", "", *_baselines(rows)]
             continue
-        verdicts = [f"{variant} on {metric}: **{_verdict(c)}**" for variant in AGAINST_STAIR for metric in METRICS
+        verdicts = [f"{variant} on {metric}: **{WORDS[c.verdict]}**" for variant in AGAINST_STAIR for metric in METRICS
                     if (c := pooled(rows, metric, variant, "stair")) is not None]
         out += ["Pooled over the scenes: " + "; ".join(verdicts) + ".", "", *header, *table, "", *_baselines(rows)]
     return "\n".join(out)

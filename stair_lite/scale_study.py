@@ -15,7 +15,8 @@ seeds as the paper-scale study finished there (the same seed numbers; the two sc
 maps differ and their views part after the first step: the column shows what a verdict with that few pairs says at
 lite), and the paper scale. Whether the *effect* changes with scale is a test of its own: Welch's t-test between the
 paired differences at the paper scale and at lite (all seeds). With about 50 such tests at the 5 % level, two or three
-"changes" are expected by chance alone.
+"changes" are expected by chance alone. Where the paper scale's verdict differs from lite's, ``verdict_change`` says how:
+it flips, is new, is lost at the paper scale, or was lost to the fewer seeds (lite over the same seeds loses it too).
 
 Only the scores within a scale are compared: the two presets also evaluate differently (20 test views at 100 x 100 px
 against 100 at 400 x 400, meshes from a 128^3 against a 256^3 lattice, 1e5 against 1e6 surface points), so an
@@ -125,6 +126,30 @@ def changes_with_scale(entry: dict) -> bool:
     return scale_effect(entry)[1] < ALPHA
 
 
+DECIDED = ("holds", "reversed")
+# how a verdict at the paper scale differs from lite's over all its seeds (``verdict_change``), in the report's order
+CHANGES = {
+    "flips": "decided at both scales, in opposite directions",
+    "new at the paper scale": "not significant at lite, decided at the paper scale",
+    "lost at the paper scale": "decided at lite over all its seeds and over the paper study's seeds alike, not significant "
+                               "at the paper scale",
+    "lost to the seeds": "decided at lite over all its seeds only: over the paper study's seeds lite does not decide it "
+                         "either",
+}
+
+
+def verdict_change(entry: dict) -> str | None:
+    """How the paper scale's verdict differs from lite's over all seeds (a key of ``CHANGES``), or None: the same
+    verdict, or too few pairs at the paper scale to have one. Lite over the paper study's seeds tells a verdict lost to
+    the fewer seeds from one lost to the scale."""
+    lite, same, paper = entry["lite"].verdict, entry["lite_same"].verdict, entry["paper"].verdict
+    if paper == TOO_FEW_PAIRS or paper == lite:
+        return None
+    if paper in DECIDED:
+        return "flips" if lite in DECIDED else "new at the paper scale"
+    return "lost at the paper scale" if same == lite else "lost to the seeds"
+
+
 def core_hours(rows: list[dict]) -> float:
     """The wall time of the missions' phases (plan, train, evaluate; measuring a view takes well under a second) summed,
     in hours: core-hours where each mission ran on one core (the sweeps' workers run torch on one thread; the mesh
@@ -154,6 +179,19 @@ def _effect(entry: dict) -> str:
     delta, p = scale_effect(entry)
     d = METRICS[entry["metric"]].digits
     return f"{delta:+.{d}f} (p = {p:.3f}) " + ("**yes**" if p < ALPHA else "no") if np.isfinite(p) else f"{delta:+.{d}f} (-) {TOO_FEW_PAIRS}"
+
+
+def _changes_line(entries: list[dict]) -> str:
+    """Which verdicts differ between lite (all seeds) and the paper scale, by kind (``verdict_change``)."""
+    decided = [e for e in entries if e["paper"].verdict != TOO_FEW_PAIRS]
+    kinds = {kind: [e for e in decided if verdict_change(e) == kind] for kind in CHANGES}
+    listed = "; ".join(
+        f"**{kind}** ({CHANGES[kind]}): " + ", ".join(
+            f"claim {e['claim']} {e['scene']} {e['metric']} ({SHORT[e['lite'].verdict]} -> {SHORT[e['paper'].verdict]})"
+            for e in mine) for kind, mine in kinds.items() if mine)
+    same = len(decided) - sum(map(len, kinds.values()))
+    return (f"Verdicts at the paper scale against lite's over all its seeds, among the {len(decided)} comparisons with two "
+            f"pairs at the paper scale: {same} the same" + (f"; {listed}." if listed else "."))
 
 
 def _missions(rows: list[dict]) -> int:
@@ -198,6 +236,7 @@ def markdown_report(by_scale: dict[str, list[dict]]) -> str:
             f"{len(seeds_only)} of the {len(few_seeds)} per-scene comparisons with two such seeds. Each cell: the paired "
             "difference (STAIR minus the other), the pairs, p and the verdict (n.s.: not significant; "
             f"{TOO_FEW_PAIRS}: fewer than two); the last column the paper scale's difference minus lite's.", ""]
+    out += [_changes_line(entries), ""]
     for claim, what in CLAIMS.items():
         mine = [e for e in entries if e["claim"] == claim]
         out += [f"### Claim {claim}: {what}", "",

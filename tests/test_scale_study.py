@@ -2,8 +2,8 @@
 import numpy as np
 
 from stair_lite.claims import claim_one, claim_two, markdown_report as claims_report
-from stair_lite.scale_study import (VARIANTS, changes_with_scale, core_hours, markdown_report, scale_effect, seeds_by_scene,
-                                    side_by_side)
+from stair_lite.scale_study import (CHANGES, VARIANTS, changes_with_scale, core_hours, markdown_report, scale_effect,
+                                    seeds_by_scene, side_by_side, verdict_change)
 
 
 def study(means: dict, seeds: int, scenes=("scene1", "scene4"), noise=0.05, seed=0):
@@ -48,6 +48,27 @@ def test_an_effect_that_changes_at_the_paper_scale_is_flagged():
     assert two["paper"].verdict == "holds" and not changes_with_scale(two)  # STAIR still 3 ahead of STE
     report = markdown_report({"lite": lite, "paper": paper})
     assert "**yes**" in report and "in 2 of the 8 per-scene comparisons" in report  # claim (i)'s PSNR on both scenes
+    assert verdict_change(one) == "flips" and verdict_change(two) is None
+    assert "among the 12 comparisons with two pairs at the paper scale: 9 the same; **flips**" in report
+    assert "claim (i) scene1 psnr (holds -> reversed), claim (i) scene4 psnr (holds -> reversed), claim (i) all scenes " \
+           "psnr (holds -> reversed)." in report
+
+
+def test_a_verdict_that_differs_at_the_paper_scale_is_told_by_its_cause():
+    """Lite over the paper study's seeds separates a verdict lost to fewer seeds from one lost to the scale."""
+    from types import SimpleNamespace
+
+    def entry(lite, same, paper):
+        return {name: SimpleNamespace(verdict=v) for name, v in (("lite", lite), ("lite_same", same), ("paper", paper))}
+
+    assert verdict_change(entry("holds", "holds", "holds")) is None
+    assert verdict_change(entry("holds", "not significant", "too few pairs")) is None  # no verdict at the paper scale
+    assert verdict_change(entry("holds", "not significant", "reversed")) == "flips"
+    assert verdict_change(entry("reversed", "reversed", "holds")) == "flips"
+    assert verdict_change(entry("not significant", "not significant", "holds")) == "new at the paper scale"
+    assert verdict_change(entry("holds", "holds", "not significant")) == "lost at the paper scale"
+    assert verdict_change(entry("reversed", "not significant", "not significant")) == "lost to the seeds"
+    assert set(CHANGES) == {"flips", "new at the paper scale", "lost at the paper scale", "lost to the seeds"}
 
 
 def test_both_scales_meet_the_baseline_that_was_strongest_at_lite():

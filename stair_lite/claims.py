@@ -136,7 +136,9 @@ def seeds_needed(sd_difference: float, difference: float, alpha: float = ALPHA, 
     effect = abs(difference) / sd_difference
     for n in range(2, most + 1):
         t_crit = stats.t.ppf(1 - alpha / 2, n - 1)
-        reached = stats.nct.sf(t_crit, n - 1, effect * np.sqrt(n)) + stats.nct.cdf(-t_crit, n - 1, effect * np.sqrt(n))
+        # the far tail (the wrong sign) is negligible here, and scipy's nct returns NaN for it where it underflows
+        wrong_sign = np.nan_to_num(stats.nct.cdf(-t_crit, n - 1, effect * np.sqrt(n)))
+        reached = stats.nct.sf(t_crit, n - 1, effect * np.sqrt(n)) + wrong_sign
         if reached >= power:
             return n
     raise ValueError(f"more than {most} seeds needed for a difference of {difference} at spread {sd_difference}")

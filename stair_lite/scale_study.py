@@ -88,15 +88,19 @@ def opponents(lite_rows: list[dict]) -> dict[tuple[str, str, str], str]:
 
 
 def side_by_side(by_scale: dict[str, list[dict]]) -> list[dict]:
-    """One entry per claim, scene (and "all scenes", pooled) and metric that the paper-scale study can test: STAIR
-    against the same opponent (``opponents``) at lite over all its seeds (``lite``), at lite over the paper study's
-    seed numbers (``lite_same``) and at the paper scale (``paper``)."""
+    """One entry per claim, scene (and "all scenes", pooled over the seeds that every scene finished at the paper scale)
+    and metric that the paper-scale study can test: STAIR against the same opponent (``opponents``) at lite over all its
+    seeds (``lite``), at lite over the paper study's seed numbers (``lite_same``) and at the paper scale (``paper``)."""
     paper_seeds = seeds_by_scene(by_scale["paper"])
     lite = [r for r in by_scale["lite"] if r["scene"] in paper_seeds]
     if not paper_seeds or not lite:
         return []
     against = opponents(lite)
+    # the pooled rows take only the seeds every scene finished, so that each scene weighs alike at both scales
+    common = sorted(set.intersection(*(set(seeds) for seeds in paper_seeds.values())))
+    balanced = {scene: common for scene in paper_seeds}
     columns = {"lite": lite, "lite_same": restricted(lite, paper_seeds), "paper": restricted(by_scale["paper"], paper_seeds)}
+    pooled_columns = {"lite": lite, "lite_same": restricted(lite, balanced), "paper": restricted(by_scale["paper"], balanced)}
     metrics = [m for m in metrics_of(lite) if m in metrics_of(by_scale["paper"])]
     out = []
     for claim in CLAIMS:
@@ -104,11 +108,13 @@ def side_by_side(by_scale: dict[str, list[dict]]) -> list[dict]:
             keys = [(claim, scene, metric) for scene in paper_seeds if (claim, scene, metric) in against]
             if not keys:
                 continue
-            mine = [{"claim": claim, "scene": k[1], "metric": metric,
+            out += [{"claim": claim, "scene": k[1], "metric": metric,
                      **{name: compare(rows, k[1], metric, "stair", against[k]) for name, rows in columns.items()}}
                     for k in keys]
-            out += mine + [{"claim": claim, "scene": "all scenes", "metric": metric,
-                            **{name: pooled([e[name] for e in mine]) for name in columns}}]
+            if common:
+                out.append({"claim": claim, "scene": "all scenes", "metric": metric,
+                            **{name: pooled([compare(rows, k[1], metric, "stair", against[k]) for k in keys])
+                               for name, rows in pooled_columns.items()}})
     return out
 
 
@@ -133,21 +139,21 @@ CHANGES = {
     "new at the paper scale": "not significant at lite, decided at the paper scale",
     "lost at the paper scale": "decided at lite over all its seeds and over the paper study's seeds alike, not significant "
                                "at the paper scale",
-    "lost to the seeds": "decided at lite over all its seeds only: over the paper study's seeds lite does not decide it "
-                         "either",
+    "not reached over these seeds at lite either": "decided at lite over all its seeds; over the paper study's seeds "
+                                                   "lite does not reach that verdict either, which the few seeds may explain",
 }
 
 
 def verdict_change(entry: dict) -> str | None:
     """How the paper scale's verdict differs from lite's over all seeds (a key of ``CHANGES``), or None: the same
-    verdict, or too few pairs at the paper scale to have one. Lite over the paper study's seeds tells a verdict lost to
-    the fewer seeds from one lost to the scale."""
+    verdict, or too few pairs at either scale to have one. Lite over the paper study's seeds separates a verdict those
+    seeds still reach at lite from one they do not (a matter of power, not a proof of cause)."""
     lite, same, paper = entry["lite"].verdict, entry["lite_same"].verdict, entry["paper"].verdict
-    if paper == TOO_FEW_PAIRS or paper == lite:
+    if TOO_FEW_PAIRS in (lite, paper) or paper == lite:
         return None
     if paper in DECIDED:
         return "flips" if lite in DECIDED else "new at the paper scale"
-    return "lost at the paper scale" if same == lite else "lost to the seeds"
+    return "lost at the paper scale" if same == lite else "not reached over these seeds at lite either"
 
 
 def core_hours(rows: list[dict]) -> float:
@@ -221,19 +227,24 @@ def markdown_report(by_scale: dict[str, list[dict]]) -> str:
     pooled_changed = [e for e in pooled_tested if changes_with_scale(e)]
     few_seeds = [e for e in per_scene if len(e["lite_same"].differences) >= 2]
     seeds_only = [e for e in few_seeds if e["lite"].verdict != e["lite_same"].verdict]
+    pooled_few = [e for e in entries if e["scene"] == "all scenes" and len(e["lite_same"].differences) >= 2]
+    pooled_seeds_only = [e for e in pooled_few if e["lite"].verdict != e["lite_same"].verdict]
     shown = metrics_of(by_scale["lite"] + by_scale["paper"])
     means = {m: scores(by_scale, m) for m in ("psnr", "psnr_clean", "f1", "chamfer") if m in shown}
-    out += ["Each variant's mean over the steps, averaged over those scenes and seeds (compare the variants within a "
-            "scale: the two scales also evaluate differently):", "",
+    out += ["Each variant's mean over the steps, averaged over those scenes and seeds, at lite too (its missions of the "
+            "same scenes and seed numbers; compare the variants within a scale: the two scales also evaluate differently):",
+            "",
             "| variant | " + " | ".join(f"{m} lite | {m} paper" for m in means) + " |", "|---|" + "---|---|" * len(means),
             *[f"| {v} | " + " | ".join(f"{means[m]['lite', v]:.{METRICS[m].digits}f} | {means[m]['paper', v]:.{METRICS[m].digits}f}"
                                        for m in means) + " |" for v in VARIANTS], ""]
     out += [f"STAIR's paired difference changes with scale (Welch's test against lite's, p < {ALPHA}) in {len(changed)} of "
             f"the {len(tested)} per-scene comparisons that have two pairs at the paper scale (about {ALPHA * len(tested):.1f} "
             f"expected by chance alone), and in {len(pooled_changed)} of the {len(pooled_tested)} pooled over the scenes "
-            "(\"all scenes\": a pair is a scene's seed, so with few seeds a scene their spread is mostly the scenes'); "
-            f"lite's own verdict over only the paper study's seeds differs from its verdict over all seeds in "
-            f"{len(seeds_only)} of the {len(few_seeds)} per-scene comparisons with two such seeds. Each cell: the paired "
+            "(\"all scenes\", over the seeds every scene finished: a pair is a scene's seed, so with few seeds a scene "
+            "their spread is mostly the scenes', and the pooled tests share their missions across the metrics: read "
+            "their p-values as optimistic); lite's own verdict over only the paper study's seeds differs from its verdict "
+            f"over all seeds in {len(seeds_only)} of the {len(few_seeds)} per-scene comparisons with two such seeds and in "
+            f"{len(pooled_seeds_only)} of the {len(pooled_few)} pooled ones. Each cell: the paired "
             "difference (STAIR minus the other), the pairs, p and the verdict (n.s.: not significant; "
             f"{TOO_FEW_PAIRS}: fewer than two); the last column the paper scale's difference minus lite's.", ""]
     out += [_changes_line(entries), ""]

@@ -68,6 +68,9 @@ def test_seeds_needed_matches_the_textbook_sample_sizes():
     assert seeds_needed(1.0, 1.0) == 10
     assert seeds_needed(0.04, 0.02) == 34
     assert seeds_needed(0.04, -0.02) == 34  # the sign does not matter
+    # a larger difference never needs more seeds (scipy's far tail underflows to NaN at some effects of 3 seeds)
+    needed = [seeds_needed(1.0, d) for d in np.arange(3.0, 12.0, 0.1)]
+    assert needed == sorted(needed, reverse=True) and needed[-1] == 2
     with pytest.raises(ValueError, match="positive spread"):
         seeds_needed(0.0, 0.1)
 

@@ -54,21 +54,36 @@ def test_an_effect_that_changes_at_the_paper_scale_is_flagged():
            "psnr (holds -> reversed)." in report
 
 
-def test_a_verdict_that_differs_at_the_paper_scale_is_told_by_its_cause():
-    """Lite over the paper study's seeds separates a verdict lost to fewer seeds from one lost to the scale."""
+def test_a_verdict_that_differs_at_the_paper_scale_is_sorted_by_what_lite_says_over_the_same_seeds():
+    """Lite over the paper study's seeds separates a verdict those seeds still reach at lite from one they do not."""
     from types import SimpleNamespace
 
     def entry(lite, same, paper):
         return {name: SimpleNamespace(verdict=v) for name, v in (("lite", lite), ("lite_same", same), ("paper", paper))}
 
+    unreached = "not reached over these seeds at lite either"
     assert verdict_change(entry("holds", "holds", "holds")) is None
     assert verdict_change(entry("holds", "not significant", "too few pairs")) is None  # no verdict at the paper scale
+    assert verdict_change(entry("too few pairs", "too few pairs", "holds")) is None  # nor at lite
     assert verdict_change(entry("holds", "not significant", "reversed")) == "flips"
     assert verdict_change(entry("reversed", "reversed", "holds")) == "flips"
     assert verdict_change(entry("not significant", "not significant", "holds")) == "new at the paper scale"
     assert verdict_change(entry("holds", "holds", "not significant")) == "lost at the paper scale"
-    assert verdict_change(entry("reversed", "not significant", "not significant")) == "lost to the seeds"
-    assert set(CHANGES) == {"flips", "new at the paper scale", "lost at the paper scale", "lost to the seeds"}
+    assert verdict_change(entry("reversed", "not significant", "not significant")) == unreached
+    assert verdict_change(entry("holds", "reversed", "not significant")) == unreached
+    assert set(CHANGES) == {"flips", "new at the paper scale", "lost at the paper scale", unreached}
+
+
+def test_the_pooled_rows_weigh_every_scene_alike():
+    """Scene1 finished three seeds at the paper scale, scene4 one: pooled, each scene gives its seed 0 only."""
+    lite = study(LITE, seeds=8)
+    paper = [r for r in study(LITE, seeds=3, seed=1) if r["scene"] == "scene1" or r["seed"] == 0]
+    entries = side_by_side({"lite": lite, "paper": paper})
+    scene1 = [e for e in entries if e["scene"] == "scene1"][0]
+    pooled = [e for e in entries if e["scene"] == "all scenes"][0]
+    assert len(scene1["paper"].differences) == len(scene1["lite_same"].differences) == 3
+    assert len(pooled["paper"].differences) == len(pooled["lite_same"].differences) == 2
+    assert len(pooled["lite"].differences) == 16
 
 
 def test_both_scales_meet_the_baseline_that_was_strongest_at_lite():

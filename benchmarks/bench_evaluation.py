@@ -4,7 +4,8 @@ A paper-preset field is trained on three views of scene 1 (a cut schedule: 60 it
 view: a cloudy field, far more samples to read than a trained one), or ``--mission`` names a stored mission folder
 whose checkpoint holds the state of a real mission (e.g. one of the paper-scale comparison's, on the machine that ran
 it: checkpoints are not committed), and the evaluator's phases are timed: the target skip grid, the target-only
-renders of the test views (100 at 400 x 400 at the paper preset), the target mesh (a 256^3 lattice) and its surface
+renders of the test views (100 at 400 x 400 at the paper preset), the phantom share (the field's occupancy on the
+lattice below the ground), the target mesh (a 256^3 lattice) and its surface
 samples (1e6), and the nearest-distance scores, both with scipy's default KD-tree queried in the samples' order and as
 the evaluation takes them (``evaluation.point_tree``, queries in ``spatial_order``: the same scores; the figure is the
 ratio). Medians over ``--repeats``. For the renders, also what they sample: the
@@ -135,6 +136,7 @@ def measure(args, preset, implicit, evaluator, targets, state: str):
                       args.repeats)
     behind = [share_behind_opaque(implicit.field, skip, ray, points, len(rays[0]), targets)
               for (ray, points), rays in zip(windows, sampled)]
+    t_phantom, _ = timed(lambda: implicit.occupied_share_below(GROUND_CUT_Z), args.repeats)
     t_mesh, mesh = timed(lambda: implicit.target_mesh(targets), args.repeats)
     n, seed = preset.eval.mesh_points, evaluator.seed + 1
     t_sample, pred = timed(lambda: sample_surface(mesh, n, seed), args.repeats)
@@ -162,11 +164,12 @@ def measure(args, preset, implicit, evaluator, targets, state: str):
     print(f"    reading the field at the kept samples of {len(kept)} views {t_read:.2f} s of their renders' {t_five:.2f} s")
     print(f"    kept samples behind the point where their ray is opaque (T < 1e-4): {min(behind):.1%} to "
           f"{max(behind):.1%} a view (the most that stopping rays once opaque could save)")
+    print(f"  phantom share (lattice below the ground) {t_phantom:5.2f} s (only the vertices a ray reached are queried)")
     print(f"  target mesh ({cfg.mesh_resolution}^3 lattice)       {t_mesh:7.2f} s")
     print(f"  surface samples ({n:.0e})         {t_sample:7.2f} s")
     print(f"  mesh scores, scipy's default tree {t_default:6.2f} s")
     print(f"  mesh scores, the evaluation's     {t_ours:6.2f} s  ({t_default / t_ours:.1f}x faster, the same scores)")
-    total = t_skip + t_render * len(evaluator.poses) / len(poses) + t_mesh + t_sample + t_ours
+    total = t_skip + t_render * len(evaluator.poses) / len(poses) + t_phantom + t_mesh + t_sample + t_ours
     print(f"  one evaluation (renders scaled to all {len(evaluator.poses)} views): about {total:.0f} s")
 
 

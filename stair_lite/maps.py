@@ -13,6 +13,7 @@ from collections.abc import Iterable
 from dataclasses import replace
 
 import numpy as np
+import torch
 
 from .config import EvalConfig, Preset
 from .evaluation import extract_mesh
@@ -135,9 +136,18 @@ class ImplicitMap(ReconstructionMap):
         return extract_mesh(self.field, self.eval_cfg.mesh_resolution, targets=targets, skip=self.target_skip_grid(targets))
 
     def occupied_share_below(self, z_max):
+        """With occupancy only where a ray reached (``FieldConfig.reached_only``), a vertex no ray reached has o = 0
+        exactly (its own trilinear weight is 1), so only the reached vertices below ``z_max`` are queried: under the
+        ground, few or none."""
         points = self.field.lattice.points(self.field.device)
-        below = points[points[:, 2] < z_max]
-        return float((self.field.query(below)["occ"] > OCCUPIED).float().mean()) if len(below) else 0.0
+        below = points[:, 2] < z_max
+        if not below.any():
+            return 0.0
+        queried = below & self.field.reached if self.field.cfg.reached_only else below
+        occupied = torch.zeros(int(below.sum()), dtype=torch.bool, device=points.device)
+        if queried.any():
+            occupied[queried[below]] = self.field.query(points[queried])["occ"] > OCCUPIED
+        return float(occupied.float().mean())
 
     @property
     def planning_source(self) -> SemanticField:

@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import torch
@@ -245,6 +247,29 @@ def test_occupied_share_below_counts_the_phantom_under_the_ground():
     share = implicit.occupied_share_below(-0.05)
     assert 0.3 < expected and abs(share - expected) < 0.5 / len(below), (share, expected)
     assert ExplicitMap.from_preset(preset).occupied_share_below(-0.05) == 0.0
+
+
+def test_occupied_share_below_queries_only_the_reached_vertices_and_counts_as_the_dense_query():
+    """Occupancy only where a ray reached: the vertices no ray reached are not queried, and the share is the dense
+    query's to the last bit; the head's high occupancy at an unreached vertex counts for nothing."""
+    preset = get_preset("smoke")
+    for reached_only in (True, False):
+        preset_here = replace(preset, field=replace(preset.field, reached_only=reached_only))
+        implicit = ImplicitMap.from_preset(preset_here)
+        field = implicit.field
+        with torch.no_grad():
+            points = field.lattice.points()
+            field.grid_occ[points[:, 2] < -0.3] = 1e3  # the head alone fills the volume below z = -0.3
+            field.occ_mlp[-1].bias.fill_(0.0)
+            field.reached.copy_(torch.rand(len(points), generator=torch.Generator().manual_seed(0)) < 0.5)
+        below = points[points[:, 2] < -0.05]
+        dense = float((field.query(below)["occ"] > 0.5).float().mean())
+        queried = []
+        query = field.query
+        field.query = lambda x, **kw: (queried.append(len(x)), query(x, **kw))[1]
+        assert implicit.occupied_share_below(-0.05) == dense
+        assert queried == [int((field.reached[points[:, 2] < -0.05]).sum()) if reached_only else len(below)]
+        assert dense > 0.1  # the check has occupied vertices to count
 
 
 def test_the_point_tree_finds_the_same_nearest_distances_as_scipys_default_tree():

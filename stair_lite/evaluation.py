@@ -5,7 +5,7 @@ Two target-only PSNRs are reported. ``psnr`` follows the paper's protocol as sta
 render with non-target samples deleted against the measured image with non-target pixels blanked.
 It compares unlike with unlike where another object hides a target (the render shows the target,
 the image does not) and where the render looks through the deleted ground into the volume below it,
-which no view observes (the field fills it). ``psnr_clean`` removes both (notebook 06 measures them):
+which no view observes (the field fills it). ``psnr_clean`` removes both (notebook 08 measures them):
 its ground truth is the target objects rendered alone, and the field's samples below ``GROUND_CUT_Z``
 are ignored, as the mesh metric ignores them. It averages over the test views that show a target.
 """

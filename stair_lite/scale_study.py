@@ -16,7 +16,8 @@ maps differ and their views part after the first step: the column shows what a v
 lite), and the paper scale. Whether the *effect* changes with scale is a test of its own: Welch's t-test between the
 paired differences at the paper scale and at lite (all seeds). With about 50 such tests at the 5 % level, two or three
 "changes" are expected by chance alone. Where the paper scale's verdict differs from lite's, ``verdict_change`` says how:
-it flips, is new, is lost at the paper scale, or was lost to the fewer seeds (lite over the same seeds loses it too).
+it flips, is new, is lost at the paper scale, or lite over the same seeds does not reach it either (which the fewer
+seeds may explain; no cause is claimed).
 
 Only the scores within a scale are compared: the two presets also evaluate differently (20 test views at 100 x 100 px
 against 100 at 400 x 400, meshes from a 128^3 against a 256^3 lattice, 1e5 against 1e6 surface points), so an

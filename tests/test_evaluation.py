@@ -251,7 +251,7 @@ def test_occupied_share_below_counts_the_phantom_under_the_ground():
 
 def test_occupied_share_below_queries_only_the_reached_vertices_and_counts_as_the_dense_query():
     """Occupancy only where a ray reached: the vertices no ray reached are not queried, and the share is the dense
-    query's to the last bit; the head's high occupancy at an unreached vertex counts for nothing."""
+    query's to the last bit; with ``reached_only`` the head's high occupancy at an unreached vertex counts for nothing."""
     preset = get_preset("smoke")
     for reached_only in (True, False):
         preset_here = replace(preset, field=replace(preset.field, reached_only=reached_only))

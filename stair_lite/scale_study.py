@@ -197,8 +197,12 @@ def _changes_line(entries: list[dict]) -> str:
             f"claim {e['claim']} {e['scene']} {e['metric']} ({SHORT[e['lite'].verdict]} -> {SHORT[e['paper'].verdict]})"
             for e in mine) for kind, mine in kinds.items() if mine)
     same = len(decided) - sum(map(len, kinds.values()))
+    two = sum(len(e["paper"].differences) == 2 for e in decided)
+    caveat = (f" {two} of them have only two pairs at the paper scale: a paired test with one degree of freedom needs t "
+              f"above {stats.t.ppf(1 - ALPHA / 2, 1):.1f} for p < {ALPHA}, so there a verdict lost is mostly the test's "
+              "power.") if two else ""
     return (f"Verdicts at the paper scale against lite's over all its seeds, among the {len(decided)} comparisons with two "
-            f"pairs at the paper scale: {same} the same" + (f"; {listed}." if listed else "."))
+            f"pairs at the paper scale: {same} the same" + (f"; {listed}." if listed else ".") + caveat)
 
 
 def _missions(rows: list[dict]) -> int:

@@ -74,6 +74,13 @@ def test_a_verdict_that_differs_at_the_paper_scale_is_sorted_by_what_lite_says_o
     assert set(CHANGES) == {"flips", "new at the paper scale", "lost at the paper scale", unreached}
 
 
+def test_the_list_of_changed_verdicts_warns_where_a_test_has_one_degree_of_freedom():
+    lite = study(LITE, seeds=8)
+    two = markdown_report({"lite": lite, "paper": [r for r in lite if r["seed"] < 2]})
+    assert "8 of them have only two pairs at the paper scale" in two  # per scene; the pools have 4 and "t above 12.7" in two
+    assert "only two pairs" not in markdown_report({"lite": lite, "paper": [r for r in lite if r["seed"] < 3]})
+
+
 def test_the_pooled_rows_weigh_every_scene_alike():
     """Scene1 finished three seeds at the paper scale, scene4 one: pooled, each scene gives its seed 0 only."""
     lite = study(LITE, seeds=8)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import itertools
 import json
 import os
 import shutil
@@ -19,6 +20,7 @@ import torch
 METRICS_FILE, CHECKPOINT_FILE, LOCK_FILE = "metrics.json", "checkpoint.pt", ".lock"
 # 1: before the version was written (an exact mission's config had no ``label_noise``); 2: every field written
 FORMAT = 2
+_WRITES = itertools.count()  # numbers this process's temporary files (``written_whole``)
 
 
 def upgrade_header(stored: dict) -> dict:
@@ -50,23 +52,20 @@ def make_output_folder(folder: str | Path) -> Path:
 
 
 def write_json_atomically(path: Path, data) -> None:
-    """Write JSON to a temporary file, then rename it over ``path``: readers never see a partial file. A score
-    that is not a finite number (the PSNR of a perfect image) is written as null: NaN is not JSON."""
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    try:
+    """Write JSON through ``written_whole``: readers never see a partial file. A score that is not a finite number
+    (the PSNR of a perfect image) is written as null: NaN is not JSON."""
+    with written_whole(path) as tmp:
         tmp.write_text(json.dumps(_finite_or_null(data), indent=1, allow_nan=False))
-    except OSError as err:
-        tmp.unlink(missing_ok=True)
-        raise OSError(f"could not write {path}: {err.strerror or err}") from None
-    os.replace(tmp, path)
 
 
 @contextlib.contextmanager
 def written_whole(path: Path):
     """Write a file through a temporary name beside it, renamed into place once whole: a failure (a full disk) leaves
-    the former file, names the file and the free space, and leaves no partial file."""
+    the former file, names the file and the free space, and leaves no partial file. The temporary name is this
+    writer's own (process and call), so two processes writing one file (a sweep's lanes, each writing the shared
+    summary) never rename each other's half-written file: the last whole one wins."""
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
+    tmp = path.with_name(f"{path.name}.{os.getpid()}-{next(_WRITES)}.tmp")
     try:
         yield tmp
         os.replace(tmp, path)

@@ -113,6 +113,23 @@ def test_report_on_a_full_disk_names_the_file_and_leaves_no_cut_file(tmp_path, c
     assert (tmp_path / "results.csv").read_text() == before and not list(tmp_path.glob("*.tmp"))
 
 
+def test_two_writers_of_one_file_do_not_take_each_others_temporary_file(tmp_path):
+    """Two sweeps' lanes write one summary (results.csv, the curves) at the same moment: each writes its own temporary
+    file, so neither renames the other's away (a shared name made the later rename fail: "No such file")."""
+    from stair_lite.results_folder import write_json_atomically, written_whole
+
+    target = tmp_path / "results.csv"
+    with written_whole(target) as first:
+        first.write_text("first")
+        with written_whole(target) as second:  # begun and finished while the first is half-written
+            assert second != first
+            second.write_text("second")
+        assert target.read_text() == "second" and first.read_text() == "first"
+    assert target.read_text() == "first" and not list(tmp_path.glob("*.tmp"))
+    write_json_atomically(tmp_path / "sweep.json", {"preset": "lite"})
+    assert json.loads((tmp_path / "sweep.json").read_text()) == {"preset": "lite"} and not list(tmp_path.glob("*.tmp"))
+
+
 def test_resume_refuses_another_missions_checkpoint(tmp_path, capsys):
     for seed in (0, 1):
         assert main(["run", "--preset", "smoke", "--planner", "uniform", "--budget", "1", "--seed", str(seed),

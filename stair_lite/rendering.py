@@ -15,6 +15,7 @@ import torch
 
 from .classes import BACKGROUND, NUM_CLASSES
 from .config import RenderConfig
+from .field import class_probabilities
 from .geometry import Intrinsics, pixel_rays
 from .lattice import Lattice, flat_index
 
@@ -287,7 +288,7 @@ def sample_appearance(field, samples: dict[str, torch.Tensor], active: torch.Ten
         f_rgb, f_sem = samples["f_rgb"][rows], samples["sem_logits"].view(len(active), -1)[active]
     else:
         f_rgb, f_sem = field.appearance_at(located)
-    return field.colour_from(f_rgb, located.pe), torch.softmax(f_sem, dim=-1)
+    return field.colour_from(f_rgb, located.pe), class_probabilities(f_sem)
 
 
 def composite(values: torch.Tensor, rows: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:

@@ -17,7 +17,7 @@ from .classes import BACKGROUND, NUM_CLASSES
 from .config import RenderConfig
 from .field import class_probabilities
 from .geometry import Intrinsics, pixel_rays
-from .lattice import Lattice, flat_index
+from .lattice import Lattice
 
 
 def ray_box_intersection(origins: torch.Tensor, dirs: torch.Tensor, bound, near: float, low=None):
@@ -49,8 +49,11 @@ def reached_vertices(lattice: Lattice, origins: torch.Tensor, dirs: torch.Tensor
         n = int(torch.ceil(length.max() / (0.5 * lattice.spacing))) + 1
         t = t_near[chunk, None] + length[:, None] * torch.linspace(0.0, 1.0, n, device=origins.device)
         points = origins[chunk, None, :] + t[..., None] * dirs[chunk, None, :]
-        cell = lattice.vertex_units(points.reshape(-1, 3)).floor().clamp(0, r - 2).long()
-        cells[flat_index(cell[:, 0], cell[:, 1], cell[:, 2], r - 1)] = True
+        del t  # each array freed as soon as it is used: a chunk's side-view rays hold up to about 7e6 points
+        cell = lattice.vertex_units(points.reshape(-1, 3)).floor_().clamp_(0, r - 2)
+        del points
+        # the flat cell index as one float product (exact: every partial sum is an integer below 2^24)
+        cells[(cell @ torch.tensor([1.0, r - 1, (r - 1) ** 2], device=cell.device)).long()] = True
     # a vertex is reached when any of the (up to) 8 cells around it is: a 2x2x2 max over the zero-padded cell grid
     padded = torch.nn.functional.pad(cells.view(1, 1, r - 1, r - 1, r - 1).float(), (1, 1, 1, 1, 1, 1))
     return (torch.nn.functional.max_pool3d(padded, kernel_size=2, stride=1) > 0).reshape(-1)

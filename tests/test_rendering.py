@@ -109,6 +109,39 @@ def test_a_ray_reaches_the_cells_in_front_of_its_depth_and_a_miss_crosses_the_cu
     assert reached([1]) == row(9)
 
 
+
+def test_reached_vertices_marks_the_cells_of_its_points_along_each_ray():
+    """Against the rule computed the plain way, on random rays (hits and misses) of a paper-size lattice: the cell of
+    every point along a ray, every half vertex spacing up to its depth, by integer indices (``flat_index``); the
+    function computes the index as one float product, in place, to hold less memory at once."""
+    from stair_lite.lattice import Lattice, flat_index
+    from stair_lite.rendering import reached_vertices
+
+    lattice, near = Lattice(128), 0.2
+    rng = torch.Generator().manual_seed(0)
+    origins = torch.nn.functional.normalize(torch.randn(3000, 3, generator=rng), dim=1) * 2.0
+    origins[:, 2] = origins[:, 2].abs()
+    dirs = torch.nn.functional.normalize(-origins + 0.8 * torch.randn(3000, 3, generator=rng), dim=1)
+    depth = torch.where(torch.rand(3000, generator=rng) < 0.7, 1.0 + 2.0 * torch.rand(3000, generator=rng), torch.zeros(3000))
+    r = lattice.resolution
+    t_near, t_far, hit = ray_box_intersection(origins, dirs, lattice.bound, near)
+    t_end = torch.where(depth > 0, torch.minimum(t_far, depth), t_far)
+    rows = torch.nonzero(hit & (t_end >= t_near)).squeeze(1)
+    length = t_end[rows] - t_near[rows]
+    n = int(torch.ceil(length.max() / (0.5 * lattice.spacing))) + 1   # all rows in one chunk, as the function takes them
+    points = origins[rows, None, :] + (t_near[rows, None] + length[:, None] * torch.linspace(0.0, 1.0, n))[..., None] * dirs[rows, None, :]
+    cell = lattice.vertex_units(points.reshape(-1, 3)).floor().clamp(0, r - 2).long()
+    cells = torch.zeros((r - 1) ** 3, dtype=torch.bool)
+    cells[flat_index(cell[:, 0], cell[:, 1], cell[:, 2], r - 1)] = True
+    vertices = torch.zeros(r, r, r, dtype=torch.bool)   # [z, y, x]: a vertex is reached when one of its 8 cells is
+    marked = cells.view(r - 1, r - 1, r - 1)
+    for dz in (0, 1):
+        for dy in (0, 1):
+            for dx in (0, 1):
+                vertices[dz:dz + r - 1, dy:dy + r - 1, dx:dx + r - 1] |= marked
+    assert len(rows) > 1000
+    assert torch.equal(reached_vertices(lattice, origins, dirs, depth, near), vertices.reshape(-1))
+
 def kept_samples(skip, origins, dirs, cfg):
     """Which of every ray's unjittered render samples (R, S) lie in a cell ``skip`` keeps, and their parameters t,
     found by sampling every ray in full (what the culls and windows below must agree with)."""

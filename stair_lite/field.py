@@ -33,10 +33,10 @@ def positional_encoding(x: torch.Tensor, n_frequencies: int) -> torch.Tensor:
 
 
 def class_probabilities(logits: torch.Tensor) -> torch.Tensor:
-    """s(x) = softmax of the semantic logits (N, P) over the P classes (Eq. 4's per-sample term). Computed along the
-    leading axis of the transposed (P, N) logits: on a CPU, torch's softmax along a last axis of 7 entries runs about
-    6x slower than along a leading one (benchmarks/bench_field.py's training profile), for the same values to
-    rounding."""
+    """s(x) = softmax of the semantic logits (N, P) over the P classes: the per-sample class probabilities s_i of Eq. 4.
+    Computed along the leading axis of the transposed (P, N) logits: on a CPU, torch's softmax along a last axis of 7
+    entries runs about 6x slower than along a leading one (one thread; it was 15 % of a lite training update's CPU
+    time), for the same values to rounding."""
     return torch.softmax(logits.t(), dim=0).t()
 
 

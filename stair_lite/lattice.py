@@ -23,6 +23,12 @@ def flat_index(i: torch.Tensor, j: torch.Tensor, k: torch.Tensor, resolution: in
     return (k * resolution + j) * resolution + i
 
 
+def flat_index_of_whole_floats(ijk: torch.Tensor, resolution: int) -> torch.Tensor:
+    """``flat_index`` of float coordinates (..., 3) that hold whole numbers in [0, R), as one float product: exact, since
+    every partial sum is an integer below 2^24 (R up to 256), and without three integer copies of a large array."""
+    return (ijk @ torch.tensor([1.0, resolution, resolution * resolution], dtype=ijk.dtype, device=ijk.device)).long()
+
+
 def xyz(volume_zyx):
     """A (R, R, R) volume indexed [z, y, x] (a reshaped flat table) as one indexed [x, y, z]."""
     return volume_zyx.transpose(2, 1, 0) if isinstance(volume_zyx, np.ndarray) else volume_zyx.permute(2, 1, 0)
@@ -92,10 +98,7 @@ class Lattice:
 
     def _flat_nearest(self, units: torch.Tensor) -> torch.Tensor:
         """Flat index of the vertex nearest to points in vertex units (..., 3) (rounded in place)."""
-        r = self.resolution
-        ijk = units.round_().clamp_(0, r - 1)
-        # the flat index as one float product: exact, since every partial sum is an integer below 2^24
-        return (ijk @ torch.tensor([1.0, r, r * r], dtype=ijk.dtype, device=ijk.device)).long()
+        return flat_index_of_whole_floats(units.round_().clamp_(0, self.resolution - 1), self.resolution)
 
     def nearest_layer(self, z: torch.Tensor) -> torch.Tensor:
         """Index of the z-layer nearest to each height z (the same rounding as ``nearest_index``)."""

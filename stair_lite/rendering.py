@@ -17,7 +17,7 @@ from .classes import BACKGROUND, NUM_CLASSES
 from .config import RenderConfig
 from .field import class_probabilities
 from .geometry import Intrinsics, pixel_rays
-from .lattice import Lattice
+from .lattice import Lattice, flat_index_of_whole_floats
 
 
 def ray_box_intersection(origins: torch.Tensor, dirs: torch.Tensor, bound, near: float, low=None):
@@ -52,8 +52,7 @@ def reached_vertices(lattice: Lattice, origins: torch.Tensor, dirs: torch.Tensor
         del t  # each array freed as soon as it is used: a chunk's side-view rays hold up to about 7e6 points
         cell = lattice.vertex_units(points.reshape(-1, 3)).floor_().clamp_(0, r - 2)
         del points
-        # the flat cell index as one float product (exact: every partial sum is an integer below 2^24)
-        cells[(cell @ torch.tensor([1.0, r - 1, (r - 1) ** 2], device=cell.device)).long()] = True
+        cells[flat_index_of_whole_floats(cell, r - 1)] = True
     # a vertex is reached when any of the (up to) 8 cells around it is: a 2x2x2 max over the zero-padded cell grid
     padded = torch.nn.functional.pad(cells.view(1, 1, r - 1, r - 1, r - 1).float(), (1, 1, 1, 1, 1, 1))
     return (torch.nn.functional.max_pool3d(padded, kernel_size=2, stride=1) > 0).reshape(-1)

@@ -145,3 +145,14 @@ def test_view_spread_is_the_mean_angle_between_pairs_and_ignores_a_turn_about_th
     assert view_spread(views[:2]) != view_spread(views)                                     # not a constant
     with pytest.raises(ValueError, match="at least two views"):
         view_spread(views[:1])
+
+
+def test_importing_the_package_runs_numpy_blas_on_one_thread():
+    """cores.py: beside torch's spinning threads, pixel_rays' product of a 400 x 400 view on two BLAS threads took
+    about 100x as long as on one."""
+    from threadpoolctl import threadpool_info
+
+    import stair_lite  # noqa: F401
+
+    blas = [lib for lib in threadpool_info() if lib["user_api"] == "blas"]
+    assert blas and all(lib["num_threads"] == 1 for lib in blas), blas

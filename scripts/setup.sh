@@ -25,8 +25,8 @@ if [ -n "$missing" ]; then
   fi
 fi
 
-python3 -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else 1)' || {
-  echo "[setup] Python >= 3.10 is needed, found $(python3 --version)" >&2; exit 1; }
+python3 -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else 1)' || {
+  echo "[setup] Python >= 3.11 is needed, found $(python3 --version)" >&2; exit 1; }
 
 [ -x .venv/bin/python ] || { echo "[setup] creating .venv"; python3 -m venv .venv; }
 stamp=.venv/.stair_lite_installed

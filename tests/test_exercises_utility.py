@@ -184,6 +184,10 @@ def search_unturned(score, visited, azimuth_offset, resample, n_uniform, top_k):
     return search_ok(score, visited, 0.0, resample, n_uniform, top_k)
 
 
+def search_subset_positions(*args):  # ranks the allowed views, then reads those ranks as indices into all of them
+    return _search(*args, centres_of=lambda first, allowed, k: list(np.argsort(-first[allowed])[:k]))
+
+
 def test_two_stage_search_accepts_correct():
     assert check_two_stage_search(search_ok)
     assert check_two_stage_search(search_reversed_draws)
@@ -194,7 +198,7 @@ def test_two_stage_search_accepts_correct():
     "wrong, hint",
     [(search_top_of_all, "ALLOWED"), (search_lowest, "HIGHEST"), (search_second_only, "first stage's included"),
      (search_visited_allowed, "far_enough from every visited view"), (search_first_stage_only, "shape"),
-     (search_unturned, "azimuth_offset")],
+     (search_unturned, "azimuth_offset"), (search_subset_positions, "not the expected set")],
 )
 def test_two_stage_search_rejects_wrong(wrong, hint):
     with pytest.raises(AssertionError, match=hint):

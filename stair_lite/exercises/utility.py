@@ -254,8 +254,12 @@ def check_two_stage_search(fn, seed: int = 0) -> bool:
         for name, (views, chosen) in variants.items():
             if name != "right" and np.array_equal(_sorted_views(candidates), views) and _close(best_view, chosen):
                 raise AssertionError(f"two_stage_search {where}: {_SEARCH_HINTS[name]}")
-        raise AssertionError(f"two_stage_search {where}: chose {np.round(best_view, 3)}, expected "
-                             f"{np.round(right_best, 3)}; the first stage is fibonacci_hemisphere(n_uniform, "
-                             "azimuth_offset=...), the second resample(view) around each of the top K allowed views")
+        if not np.array_equal(_sorted_views(candidates), right_set):
+            raise AssertionError(f"two_stage_search {where}: the candidates are not the expected set (the chosen view "
+                                 "may still be right): the first stage is fibonacci_hemisphere(n_uniform, "
+                                 "azimuth_offset=...), the second resample(view) around each of the top K allowed "
+                                 "first-stage views, taken from the first stage's own views in order of their scores")
+        raise AssertionError(f"two_stage_search {where}: the candidates are right, but it chose {np.round(best_view, 3)}, "
+                             f"expected {np.round(right_best, 3)}: the best allowed candidate of both stages")
     print("check_two_stage_search: 8 searches agree (candidates of both stages and the chosen view)")
     return True

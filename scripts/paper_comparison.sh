@@ -6,7 +6,7 @@
 # workers), the scenes dealt out among them and each lane finishing a scene's five variants before its next scene:
 # whole scenes land early (`python -m stair_lite scale-claims` reads every scene with all five finished).
 # Resumable: run it again to continue; finished cells stay. On this 2-core CPU a mission of an implicit planner takes
-# 23-49 minutes (STE 6-24): start it when nothing is being measured, and commit the finished cells as they land. Ctrl-C
+# 18-63 minutes (STE 4-30): start it when nothing is being measured, and commit the finished cells as they land. Ctrl-C
 # in the terminal stops every lane (they share its process group); an unfinished mission resumes from its last finished
 # step.
 #   bash scripts/paper_comparison.sh [SEEDS] [WORKERS] [DEVICE]     (default: 3 seeds, 2 workers, cpu)

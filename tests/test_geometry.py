@@ -147,12 +147,17 @@ def test_view_spread_is_the_mean_angle_between_pairs_and_ignores_a_turn_about_th
         view_spread(views[:1])
 
 
-def test_importing_the_package_runs_numpy_blas_on_one_thread():
+def test_importing_the_package_runs_openblas_on_one_thread():
     """cores.py: beside torch's spinning threads, pixel_rays' product of a 400 x 400 view on two BLAS threads took
-    about 100x as long as on one."""
-    from threadpoolctl import threadpool_info
+    about 100x as long as on one. Both orders: numpy and scipy loaded before the package (a notebook), and after it
+    (the command line imports the package first), in a fresh interpreter without the variables OpenBLAS reads its thread count from."""
+    import os
+    import subprocess
+    import sys
 
-    import stair_lite  # noqa: F401
-
-    blas = [lib for lib in threadpool_info() if lib["user_api"] == "blas"]
-    assert blas and all(lib["num_threads"] == 1 for lib in blas), blas
+    code = ("{}import stair_lite, numpy, scipy.linalg; from threadpoolctl import threadpool_info; "
+            "print(sorted({{lib['num_threads'] for lib in threadpool_info() if lib['internal_api'] == 'openblas'}}))")
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")}
+    for first in ("", "import numpy, scipy.linalg; "):
+        out = subprocess.run([sys.executable, "-c", code.format(first)], env=env, capture_output=True, text=True, check=True)
+        assert out.stdout.strip() == "[1]", (first, out.stdout, out.stderr)

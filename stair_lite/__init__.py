@@ -2,8 +2,8 @@
 
 Import this package before pyrender: offscreen rendering needs ``PYOPENGL_PLATFORM`` set before
 PyOpenGL is first imported (EGL by default; export ``PYOPENGL_PLATFORM=osmesa`` to choose OSMesa).
-Importing it also keeps freed tensor memory for reuse (``allocator.py``) and runs the OpenBLAS of numpy and scipy on one thread
-(``cores.py``: torch owns the cores).
+Importing it also keeps freed tensor memory for reuse (``allocator.py``) and runs the OpenBLAS of numpy and
+scipy on one thread (``cores.py``: torch owns the cores).
 """
 import os
 

@@ -205,6 +205,24 @@ def _changes_line(entries: list[dict]) -> str:
             f"pairs at the paper scale: {same} the same" + (f"; {listed}." if listed else ".") + caveat)
 
 
+def verdict_map(entries: list[dict], claim: str) -> list[str]:
+    """One claim's verdicts at a glance: a table of scenes (and the pool) by metrics, each cell lite's verdict over all
+    its seeds and the paper scale's, ``lite -> paper``, in bold where they differ (``verdict_change``)."""
+    mine = [e for e in entries if e["claim"] == claim]
+    metrics = list(dict.fromkeys(e["metric"] for e in mine))
+    scenes = sorted({e["scene"] for e in mine}, key=lambda s: (s == "all scenes", s))
+    cells = {(e["scene"], e["metric"]): e for e in mine}
+
+    def cell(e: dict | None) -> str:
+        if e is None:
+            return ""
+        text = f"{SHORT[e['lite'].verdict]} -> {SHORT[e['paper'].verdict]}"
+        return f"**{text}**" if verdict_change(e) else text
+
+    return ["| scene | " + " | ".join(metrics) + " |", "|---|" + "---|" * len(metrics),
+            *[f"| {s} | " + " | ".join(cell(cells.get((s, m))) for m in metrics) + " |" for s in scenes]]
+
+
 def _missions(rows: list[dict]) -> int:
     return len({(r["scene"], r["variant"], r["seed"]) for r in rows})
 
@@ -253,6 +271,9 @@ def markdown_report(by_scale: dict[str, list[dict]]) -> str:
             "difference (STAIR minus the other), the pairs, p and the verdict (n.s.: not significant; "
             f"{TOO_FEW_PAIRS}: fewer than two); the last column the paper scale's difference minus lite's.", ""]
     out += [_changes_line(entries), ""]
+    for claim, what in CLAIMS.items():
+        out += [f"Claim {claim} at a glance ({what}; lite over all its seeds -> the paper scale, in bold where they "
+                "differ):", "", *verdict_map(entries, claim), ""]
     for claim, what in CLAIMS.items():
         mine = [e for e in entries if e["claim"] == claim]
         out += [f"### Claim {claim}: {what}", "",

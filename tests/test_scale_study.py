@@ -159,3 +159,16 @@ def test_scale_claims_of_a_folder_without_the_studies_is_one_line(tmp_path):
                           capture_output=True, text=True)
     assert done.returncode == 2 and done.stderr.count("\n") == 1
     assert "holds neither comparison_lite nor comparison_paper" in done.stderr
+
+
+def test_the_verdict_map_sets_each_scene_and_metric_at_both_scales_and_marks_a_change():
+    from stair_lite.scale_study import verdict_map
+    lite = study(LITE, seeds=8)
+    paper = [dict(r, psnr=r["psnr"] - 1.5 * (r["variant"] in ("stair", "ste"))) for r in lite if r["seed"] < 3]
+    entries = side_by_side({"lite": lite, "paper": paper})
+    table = verdict_map(entries, "(i)")
+    assert table[0] == "| scene | psnr | f1 |" and len(table) == 2 + 3  # header, rule, two scenes and the pool
+    assert table[2] == "| scene1 | **holds -> reversed** | holds -> holds |"  # the spiral now beats STAIR's PSNR
+    assert table[-1].startswith("| all scenes | **holds -> reversed** |")
+    assert "**" not in "".join(verdict_map(entries, "(ii)"))  # STAIR stays as far ahead of STE: nothing changes
+    assert "Claim (i) at a glance" in markdown_report({"lite": lite, "paper": paper})

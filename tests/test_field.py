@@ -148,3 +148,25 @@ def test_an_mlp_on_parts_is_the_mlp_on_their_concatenation(hidden):
     for g_split, g_whole in zip(grad_split, grad_whole):
         torch.testing.assert_close(g_split, g_whole)
 
+
+@pytest.mark.parametrize("hidden", [(), (8,), (128, 128)])
+def test_an_mlp_in_blocks_gives_the_rows_of_the_whole_batch(hidden):
+    """Inference in cache-sized blocks with the ReLUs in place: the same rows as ``mlp_on_parts`` over the whole batch,
+    for a batch that is not a multiple of the block, and the field's colour alike with and without gradients."""
+    from stair_lite.field import mlp, mlp_on_parts, mlp_on_parts_in_blocks
+
+    torch.manual_seed(0)
+    net = mlp(27, hidden, 3)
+    a, b = torch.randn(10_001, 6), torch.randn(10_001, 21)
+    with torch.no_grad():
+        whole = mlp_on_parts(net, a, b)
+    torch.testing.assert_close(mlp_on_parts_in_blocks(net, a, b, rows=4096), whole, rtol=0, atol=1e-6)
+    torch.testing.assert_close(mlp_on_parts_in_blocks(net, a, b, rows=7), whole, rtol=0, atol=1e-6)
+    with pytest.raises(ValueError, match="linear layers with a ReLU"):
+        mlp_on_parts_in_blocks(torch.nn.Sequential(torch.nn.Linear(27, 3), torch.nn.Tanh(), torch.nn.Linear(3, 3)), a, b)
+    field = SemanticField(get_preset("paper").field, seed=0)
+    f_rgb, pe = torch.randn(5000, field.cfg.rgb_channels), torch.randn(5000, 21)
+    with torch.no_grad():
+        blocked = field.colour_from(f_rgb, pe)
+    torch.testing.assert_close(blocked, field.colour_from(f_rgb, pe).detach(), rtol=0, atol=1e-6)
+

@@ -315,3 +315,15 @@ def test_trilinear_rejects_a_last_cell_out_of_range():
 
     with pytest.raises(AssertionError, match="trilinear is wrong"):
         check_trilinear(no_clamp)
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_trilinear_checks_every_upper_face_not_only_the_corners(axis):
+    """An answer wrong on one upper face of the cube away from its corners (a last cell mishandled along one axis)."""
+    def wrong_on_one_face(V, x, bound):
+        right = trilinear_by_edges(V, x, bound)
+        on_face = np.isclose(x[:, axis], bound) & ~np.isclose(np.abs(x), bound).all(axis=1)
+        return np.where(on_face[:, None], 0.0, right)
+
+    with pytest.raises(AssertionError, match="trilinear is wrong"):
+        check_trilinear(wrong_on_one_face)

@@ -382,7 +382,8 @@ def check_trilinear(trilinear, n_trials: int = 8, seed: int = 0) -> bool:
         V = rng.normal(size=(r, r, r, c))
         x = rng.uniform(-bound, bound, size=(200, 3))
         x[:8] = bound * np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T  # the cube's corners
-        x[8:12, 0] = bound  # points on the upper face: they belong to the last cell
+        for axis in range(3):  # points on each upper face: they belong to the last cell along that axis
+            x[8 + 4 * axis : 12 + 4 * axis, axis] = bound
         got = _as_array(_call(trilinear, V.copy(), x.copy(), bound), (len(x), c), "trilinear(V, x, bound)")
         variants = _trilinear_variants(V, x, bound)
         if _close(got, variants["right"]):

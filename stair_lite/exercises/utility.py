@@ -52,7 +52,7 @@ def _ray_entropy_reference(occ: np.ndarray) -> np.ndarray:
 
 @compares_with(_ray_entropy_reference)
 def check_ray_entropy(ray_entropy, n_trials: int = 20, seed: int = 0) -> bool:
-    """``ray_entropy(occ)`` takes occupancies ``(R, S)`` (numpy, samples ordered from the camera outwards)
+    """``ray_entropy(occ)`` takes occupancies ``(R, N)`` (numpy, samples ordered from the camera outwards)
     and returns H_ray ``(R,)`` in nats: sum_i T_i H(o_i) with T_i = prod_{j<i} (1 - o_j) (Eq. 11)."""
     rng = np.random.default_rng(seed)
     for trial in range(n_trials):

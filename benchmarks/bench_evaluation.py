@@ -74,8 +74,8 @@ def share_behind_opaque(field, skip, kept_rays: torch.Tensor, kept_points: torch
     occ = field.occupancy_at(located) * is_target(field.appearance_at(located)[1], targets)
     lattice = skip.lattice
     occ = occ * (lattice.axis(occ.device)[lattice.nearest_layer(kept_points[:, 2])] >= GROUND_CUT_Z)
-    index, ((_, transmittance),) = kept_compositing(kept_rays, n_rays, occ)
-    return float((transmittance[index] < transmittance_below).float().mean())  # before each sample
+    places, ((_, transmittance),) = kept_compositing(kept_rays, n_rays, occ)
+    return float((transmittance.view(-1)[places] < transmittance_below).float().mean())  # before each sample
 
 
 def cut_schedule_field(preset, scene: str):
@@ -184,7 +184,7 @@ def measure(args, preset, implicit, evaluator, targets, state: str):
 
     t_default, chamfer_default = timed(default_scores, args.repeats)
     t_ours, score = timed(lambda: mesh_scores_from_points(pred, evaluator.gt_tree, evaluator.gt_points, cfg.f1_threshold,
-                                                          cfg.more_f1_thresholds), args.repeats)
+                                                          cfg.more_f1_thresholds, evaluator.gt_order), args.repeats)
     assert score.chamfer == chamfer_default  # the same nearest distances, summed in the same order
     print(f"{state} (F1 {score.f1:.3f}, chamfer {score.chamfer:.4f} m); medians over {args.repeats}, "
           f"{torch.get_num_threads()} torch threads:")

@@ -1,18 +1,23 @@
 """The paper preset on this CPU, in the units of the speed issue's table: one training iteration
 (4000 newest + 4000 replayed rays, 128^3 grids), one candidate render for planning (80 x 80 rays x 200
 samples, from the field snapshot), one planning step (the two-stage search over 200 candidates), and
-the process's peak memory. A measurement of the authors' code on a 2-core CPU (an external figure, not
-reproduced here) gave 1.40 s per iteration, 0.42 s per candidate render, about 100 s per planning step
-and 1.9 GB; the README quotes it with its conditions. With ``--evaluate``, also the paper's evaluation of the
-field and one whole mission step (planning, the preset's iterations, evaluation) against the authors' step without
-any evaluation, from their code measured beside ours on this machine (the speed issue: 1.17 s per 8000-ray
-iteration and 0.41 s per candidate render in their planner's batched call; 200 of each: about 316 s).
+the process's peak memory. With ``--evaluate``, also the paper's evaluation of the field and one whole mission step
+(planning, the preset's iterations, evaluation) against the authors' step without any evaluation.
+
+The authors' step: their code (dmar-bonn/stair, unmodified, on this CPU at 2 torch threads, measured with
+``benchmarks/authors_step.py`` on our scene 1's top view and a second view): 0.964 s per training iteration of
+their 8000-ray batch (4000 new + 4000 replayed rays, from their second view on; 0.772 s with the first view's 4000),
+0.364 s per candidate in their planner's two batched calls of 100 (80 x 80 rays, 440 samples per ray); a step trains
+200 iterations and scores 200 candidates: 200 x 0.964 + 200 x 0.364 = 266 s, before the mesh and model their loop
+saves after every step.
 
 Run: .venv/bin/python benchmarks/bench_paper_cpu.py [--repeats 3] [--planning-steps 1] [--evaluate]
-     .venv/bin/python benchmarks/bench_paper_cpu.py --mission [--budget 10] [--iterations 5]
+     .venv/bin/python benchmarks/bench_paper_cpu.py --mission [--budget 10] [--iterations 200]
 With ``--mission``: instead, one whole paper-preset STAIR mission (planning, training and the paper's
-evaluation after every step: 100 test views at 400x400, a 256^3 mesh lattice, 1e6 points per mesh) on a cut
-training schedule, and its peak memory (the schedule sets the time, not the memory: the batch is the paper's).
+evaluation after every step: 100 test views at 400x400, a 256^3 mesh lattice, 1e6 points per mesh), each step's
+phases, and its peak memory; with the preset's 200 iterations per view (the default), each step and the mean step
+against the authors' step. A cut schedule (``--iterations 5``) measures the memory, not the time (the batch is the
+paper's).
 """
 import argparse
 import resource
@@ -30,9 +35,11 @@ from stair_lite.mission import Mission, MissionConfig, World, build_map
 from stair_lite.planners import make_planner
 from stair_lite.utility import FieldSnapshot, score_views
 
-# the authors' code (dmar-bonn/stair, unmodified) measured beside ours on this machine: seconds per 8000-ray training
-# iteration and per candidate render in their planner's batched call; a step trains 200 iterations and renders 200
-AUTHORS_ITERATION_S, AUTHORS_CANDIDATE_S = 1.17, 0.41
+# the authors' code (dmar-bonn/stair, unmodified) measured beside ours on this machine (benchmarks/authors_step.py):
+# seconds per 8000-ray training iteration and per candidate in their planner's batched calls; a step trains 200
+# iterations and scores 200 candidates
+AUTHORS_ITERATION_S, AUTHORS_CANDIDATE_S, AUTHORS_CANDIDATES = 0.964, 0.364, 200
+AUTHORS_STEP_S = 200 * AUTHORS_ITERATION_S + AUTHORS_CANDIDATES * AUTHORS_CANDIDATE_S
 
 
 def main():
@@ -43,7 +50,8 @@ def main():
     parser.add_argument("--mission", action="store_true", help="measure one whole mission's peak memory instead")
     parser.add_argument("--evaluate", action="store_true", help="also the paper's evaluation and a whole mission step")
     parser.add_argument("--budget", type=int, default=10, help="(--mission) measurements")
-    parser.add_argument("--iterations", type=int, default=5, help="(--mission) training iterations per view")
+    parser.add_argument("--iterations", type=int, default=None, help="(--mission) training iterations per view "
+                        "(default: the preset's)")
     args = parser.parse_args()
     preset = get_preset("paper")
     if args.mission:
@@ -106,23 +114,35 @@ def main():
         t_eval = time.perf_counter() - start
         iteration = statistics.median(times)
         step = statistics.median(steps) + tc.iterations_per_view * iteration + t_eval
-        authors = tc.iterations_per_view * AUTHORS_ITERATION_S + len(decision.candidates) * AUTHORS_CANDIDATE_S
         print(f"the paper's evaluation of this field (PSNR {result['psnr']:.2f} dB, F1 {result['f1']:.3f}): {t_eval:.1f} s")
         print(f"one mission step: planning {statistics.median(steps):.1f} s + {tc.iterations_per_view} iterations x "
               f"{iteration:.2f} s + evaluation {t_eval:.1f} s = {step:.0f} s; the authors' step without evaluation "
-              f"{authors:.0f} s: {step / authors:.2f} of it (target 0.2)")
+              f"{AUTHORS_STEP_S:.0f} s: {step / AUTHORS_STEP_S:.2f} of it (target 0.2)")
     print(f"peak resident memory: {peak_gb():.2f} GB (after training: {peak_after_training:.2f} GB)")
 
 
-def whole_mission(preset, scene: str, budget: int, iterations: int) -> None:
-    """One STAIR mission of ``budget`` views at the paper preset with ``iterations`` per view; its peak memory."""
-    preset = replace(preset, train=replace(preset.train, iterations_per_view=iterations))
-    start = time.perf_counter()
+def whole_mission(preset, scene: str, budget: int, iterations: int | None) -> None:
+    """One STAIR mission of ``budget`` views at the paper preset (``iterations`` per view, default the preset's): each
+    step's phases, the mean step against the authors' step (at the preset's schedule), and the peak memory."""
+    if iterations is not None:
+        preset = replace(preset, train=replace(preset.train, iterations_per_view=iterations))
+    full_schedule = preset.train.iterations_per_view == get_preset("paper").train.iterations_per_view
+    steps = []
+
+    def report(record):
+        t = record["time_s"]
+        steps.append(t["plan"] + t["measure"] + t["train"] + t["evaluate"])
+        print(f"step {record['step']}: plan {t['plan']:.1f} s, train {t['train']:.1f} s, evaluate {t['evaluate']:.1f} s"
+              f" = {steps[-1]:.0f} s; peak so far {peak_gb():.2f} GB; F1 {record['f1']:.3f}", flush=True)
+
     mission = Mission(MissionConfig(scene=scene, planner="stair", seed=0, preset="paper", budget=budget), preset=preset)
-    mission.run(on_step=lambda record: print(f"step {record['step']}: {time.perf_counter() - start:.0f} s, peak so "
-                                             f"far {peak_gb():.2f} GB, F1 {record['f1']:.3f}", flush=True))
-    print(f"one paper-preset mission of {budget} views ({iterations} iterations per view), evaluation after every "
-          f"step: peak resident memory {peak_gb():.2f} GB")
+    mission.run(on_step=report)
+    print(f"one paper-preset mission of {budget} views ({preset.train.iterations_per_view} iterations per view), "
+          f"evaluation after every step: peak resident memory {peak_gb():.2f} GB")
+    if full_schedule:
+        mean = statistics.mean(steps)
+        print(f"mean step {mean:.1f} s (median {statistics.median(steps):.1f} s); the authors' step without evaluation "
+              f"{AUTHORS_STEP_S:.0f} s: {mean / AUTHORS_STEP_S:.2f} of it (target 0.2)")
 
 
 def peak_gb() -> float:

@@ -122,35 +122,38 @@ def spatial_order(points: np.ndarray, cell: float = 0.02) -> np.ndarray:
     return np.lexsort((cells[:, 0], cells[:, 1], cells[:, 2]))
 
 
-def point_tree(points: np.ndarray) -> cKDTree:
+def point_tree(points: np.ndarray, order: np.ndarray | None = None) -> cKDTree:
     """A KD-tree for nearest-neighbour distances between surface samples, built on the points in ``spatial_order``
     (its leaves' points then lie together in memory). scipy's defaults (balanced splits at the
     median, node boxes shrunk to their points, 16 points per leaf) make a query slow when its nearest sample is far
     away, as it is for the ground truth's points on sides a map has not yet reconstructed: on a paper-preset map after
     three views, 0.8 ms per query against 0.03 ms with sliding-midpoint splits, unshrunk boxes and 64 points per leaf
     (benchmarks/bench_evaluation.py). The nearest distances are the same: only the search differs. The tree's indices
-    refer to the points in spatial order: use it for distances."""
-    return cKDTree(points[spatial_order(points)], leafsize=64, compact_nodes=False, balanced_tree=False)
+    refer to the points in spatial order: use it for distances. ``order``: the points' ``spatial_order``, when known."""
+    order = spatial_order(points) if order is None else order
+    return cKDTree(points[order], leafsize=64, compact_nodes=False, balanced_tree=False)
 
 
-def nearest_distances(tree: cKDTree, queries: np.ndarray) -> np.ndarray:
+def nearest_distances(tree: cKDTree, queries: np.ndarray, order: np.ndarray | None = None) -> np.ndarray:
     """The distance from each query point to its nearest point in ``tree``, in the queries' order (they are
-    queried in ``spatial_order``: the same distances, faster)."""
+    queried in ``spatial_order``, or ``order`` when given: the same distances, faster)."""
     distances = np.empty(len(queries))
     if len(queries):
-        order = spatial_order(queries)
+        order = spatial_order(queries) if order is None else order
         distances[order] = tree.query(queries[order], workers=-1)[0]
     return distances
 
 
 def mesh_scores_from_points(pred_points: np.ndarray, gt_tree: cKDTree, gt_points: np.ndarray, threshold: float,
-                            more_thresholds: tuple[float, ...] = ()) -> MeshScores:
+                            more_thresholds: tuple[float, ...] = (), gt_order: np.ndarray | None = None) -> MeshScores:
     """Precision, completeness, F1 (fractions in [0, 1]) and chamfer distance [m] between point samples;
-    F1 also at ``more_thresholds`` (the distances are computed once)."""
+    F1 also at ``more_thresholds`` (the distances are computed once). ``gt_order``: the ground truth's
+    ``spatial_order``, when known (an evaluator computes it once)."""
     if len(pred_points) == 0:
         return MeshScores(0.0, 0.0, 0.0, 1.0, dict.fromkeys(more_thresholds, 0.0))
-    d_pred = nearest_distances(gt_tree, pred_points)
-    d_gt = nearest_distances(point_tree(pred_points), gt_points)
+    pred_order = spatial_order(pred_points)  # for both the predicted points' tree and their queries
+    d_pred = nearest_distances(gt_tree, pred_points, pred_order)
+    d_gt = nearest_distances(point_tree(pred_points, pred_order), gt_points, gt_order)
     precision, completeness = float(np.mean(d_pred < threshold)), float(np.mean(d_gt < threshold))
     f1_at = {t: f1_score(float(np.mean(d_pred < t)), float(np.mean(d_gt < t))) for t in more_thresholds}
     return MeshScores(precision, completeness, f1_score(precision, completeness), float((d_pred.mean() + d_gt.mean()) / 2), f1_at)
@@ -210,7 +213,8 @@ class Evaluator:
         self.views_with_targets = [i for i, g in enumerate(self.gt_alone_images) if (g < 1).any()]
         self.gt_mesh = simulator.scene.target_mesh(self.targets)
         self.gt_points = sample_surface(self.gt_mesh, cfg.mesh_points, seed)
-        self.gt_tree = point_tree(self.gt_points)
+        self.gt_order = spatial_order(self.gt_points)
+        self.gt_tree = point_tree(self.gt_points, self.gt_order)
 
     def blank_psnr(self) -> float:
         """The paper's target-only PSNR of an all-white render over the test views that show a target (on the others a
@@ -232,7 +236,7 @@ class Evaluator:
         release_freed_memory()  # the renders' working memory, before the mesh's (allocator.py)
         mesh = reconstruction.target_mesh(self.targets)
         scores = mesh_scores_from_points(sample_surface(mesh, cfg.mesh_points, self.seed + 1), self.gt_tree,
-                                         self.gt_points, cfg.f1_threshold, cfg.more_f1_thresholds)
+                                         self.gt_points, cfg.f1_threshold, cfg.more_f1_thresholds, self.gt_order)
         return {
             "psnr": float(np.mean(psnrs)),
             "psnr_clean": psnr_clean,

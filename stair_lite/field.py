@@ -12,6 +12,7 @@ weighted ``embedding_bag``; backward: a scatter-add into the touched rows) gives
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import torch
@@ -89,20 +90,34 @@ def trilinear(table: torch.Tensor, resolution: int, x_normalised: torch.Tensor) 
 @dataclass
 class Located:
     """Points located in the field's lattice: their 8 corner rows and trilinear weights, and gamma(x).
-    Computed once per sample; every table is then read at the same corners."""
+    Computed once per sample; every table is then read at the same corners. gamma(x) is computed when first
+    read (``pe``): a render that drops samples first (another class's, whose occupancy it zeroes) encodes only
+    the rest."""
 
     index: torch.Tensor  # (N, 8) rows of the (R^3, C) tables
     weights: torch.Tensor  # (N, 8) trilinear weights
-    pe: torch.Tensor  # (N, 21) positional encoding
+    normalised: torch.Tensor  # (N, 3) the points in [-1, 1]^3
+    pe_frequencies: int
     grad_into_existing: bool = False  # backward adds the tables' gradients into their .grad (SemanticField)
+
+    @functools.cached_property
+    def pe(self) -> torch.Tensor:
+        """gamma(x), (N, 21) for 3 frequencies."""
+        return positional_encoding(self.normalised, self.pe_frequencies)
 
     def share_of(self, vertices: torch.Tensor) -> torch.Tensor:
         """The trilinear share (N,) of the points' corners that are set in a boolean vertex mask (R^3,)."""
         return (self.weights * vertices[self.index]).sum(dim=1)
 
     def subset(self, rows: torch.Tensor) -> "Located":
-        """The same for the points selected by ``rows`` (a boolean mask or indices)."""
-        return Located(self.index[rows], self.weights[rows], self.pe[rows], self.grad_into_existing)
+        """The same for the points selected by ``rows`` (a boolean mask or indices); gamma(x) is taken along when
+        it was computed already. Rows are gathered with ``index_select`` (on a CPU about twice as fast as indexing)."""
+        rows = rows.nonzero().squeeze(1) if rows.dtype == torch.bool else rows
+        located = Located(*(x.index_select(0, rows) for x in (self.index, self.weights, self.normalised)),
+                          self.pe_frequencies, self.grad_into_existing)
+        if "pe" in self.__dict__:
+            located.pe = self.pe.index_select(0, rows)
+        return located
 
     def read(self, table: torch.Tensor) -> torch.Tensor:
         """interp(x, V) of Eq. 1 for a (R^3, C) table: (N, C)."""
@@ -226,10 +241,10 @@ class SemanticField(nn.Module):
                 {"params": list(self.occ_mlp.parameters()), "lr": occ_lr}]
 
     def locate(self, x: torch.Tensor) -> Located:
-        """Corner rows, trilinear weights and gamma(x) of world points x (N, 3)."""
+        """Corner rows and trilinear weights of world points x (N, 3), and gamma(x) when first read."""
         xn = self.lattice.normalise(x)
         index, weights = corner_indices_and_weights(xn, self.cfg.grid_resolution)
-        return Located(index, weights, positional_encoding(xn, self.cfg.pe_frequencies), self.grid_grad_into_existing)
+        return Located(index, weights, xn, self.cfg.pe_frequencies, self.grid_grad_into_existing)
 
     def head_occupancy_at(self, located: Located) -> torch.Tensor:
         """The occupancy head's o at located points (N,): V_occ read there, then the head, wherever a ray reached or not."""

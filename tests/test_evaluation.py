@@ -308,6 +308,8 @@ def test_mesh_scores_in_spatial_order_are_the_scores_of_plain_queries():
     assert (scores.precision, scores.completeness) == (float(np.mean(d_pred < 0.01)), float(np.mean(d_gt < 0.01)))
     assert scores.f1 == f1_score(scores.precision, scores.completeness) and 0 < scores.completeness < 0.9
     assert scores.f1_at == {t: f1_score(float(np.mean(d_pred < t)), float(np.mean(d_gt < t))) for t in (0.02, 0.05)}
+    # with the ground truth's order given (an evaluator computes it once): the same scores
+    assert mesh_scores_from_points(pred, point_tree(gt), gt, 0.01, (0.02, 0.05), spatial_order(gt)) == scores
 
 
 def test_a_tree_of_no_points_answers_like_scipys():

@@ -234,6 +234,24 @@ def depth_check(planner, BatchRenderer, step_index, suffix, stride):
     print(f"[check] (depth check renders took {dt:.1f} s, outside every timed region)")
 
 
+def ingest_and_train(planner, suffix, gazebo2opencv, view_to_pose):
+    """Ingest the measurement stored with ``suffix`` ("" the top view, "2" the second), check its geometry, train
+    ``--iterations`` and print them; returns the median seconds per iteration after ``--warmup`` and how many."""
+    view = np.asarray(MEAS["view" + suffix], dtype=float)
+    pose = gazebo_pose(MEAS["pose" + suffix], gazebo2opencv)
+    take_measurement(planner, list(view), pose, suffix=suffix)
+    geometry_checks(planner, suffix, pose, view, view_to_pose)
+    sampler, name = planner.mapper.training_sampler, f"view {suffix or '1'}"
+    print(f"[setup] after {name}: {planner.mapper.num_rays} rays in the buffer; rays per iteration "
+          f"{sampler.batch_new} new + {sampler.batch_buffer if sampler.total_buffer > 0 else 0} replayed")
+    times, outputs, iteration = timed_training(planner, ARGS.iterations)
+    s_iter, n_med = median_after(times, ARGS.warmup)
+    print(f"[train {name}] {len(times)} iterations (to {iteration}), total {times.sum():.2f} s; first {times[0]:.3f} s; "
+          f"median of the last {n_med}: {s_iter:.4f} s/iteration (min {times[-n_med:].min():.4f}, max "
+          f"{times[-n_med:].max():.4f}); rgb_loss {outputs['rgb_loss']:.4f}, psnr {outputs['psnr']:.2f}")
+    return s_iter, n_med
+
+
 # ----------------------------------------------------------------------------------------------- main
 def main():
     stair = os.path.abspath(ARGS.stair)
@@ -273,21 +291,9 @@ def main():
           f"{int(planner.W * args.downscale_planning)}, targets {planner.planning_target_id}")
 
     # --- the top view
-    view1 = np.asarray(MEAS["view"], dtype=float)
-    pose1 = gazebo_pose(MEAS["pose"], gazebo2opencv)
-    take_measurement(planner, list(view1), pose1)
-    geometry_checks(planner, "", pose1, view1, view_to_pose)
-    sampler = planner.mapper.training_sampler
-    print(f"[setup] after view 1: {planner.mapper.num_rays} rays in the buffer; rays per iteration "
-          f"{sampler.batch_new} new + {sampler.batch_buffer if sampler.total_buffer > 0 else 0} replayed")
-
-    times1, outputs1, it1 = timed_training(planner, ARGS.iterations)
-    s_iter, n_med = median_after(times1, ARGS.warmup)
+    s_iter, n_med = ingest_and_train(planner, "", gazebo2opencv, view_to_pose)
     rss_train = peak_rss_mib()
-    print(f"[train view 1] {len(times1)} iterations (to {it1}), total {times1.sum():.2f} s; first {times1[0]:.3f} s; "
-          f"median of the last {n_med}: {s_iter:.4f} s/iteration (min {times1[-n_med:].min():.4f}, max "
-          f"{times1[-n_med:].max():.4f}); rgb_loss {outputs1['rgb_loss']:.4f}, psnr {outputs1['psnr']:.2f}; "
-          f"peak RSS so far {rss_train:.0f} MiB")
+    print(f"[memory] peak RSS after training view 1: {rss_train:.0f} MiB")
 
     # --- one planning step (their plan_next_view) on the trained map
     n_cand = ARGS.candidates
@@ -332,19 +338,7 @@ def main():
           f"cluster_top_k {planner.cluster_top_k}; next view {np.round(np.degrees(next_views[0]), 2).tolist() if next_views else None} deg; "
           f"peak RSS so far {rss_plan:.0f} MiB")
 
-    s_iter2 = None
-    if ARGS.views == 2:
-        view2 = np.asarray(MEAS["view2"], dtype=float)
-        pose2 = gazebo_pose(MEAS["pose2"], gazebo2opencv)
-        take_measurement(planner, list(view2), pose2, suffix="2")
-        geometry_checks(planner, "2", pose2, view2, view_to_pose)
-        sampler = planner.mapper.training_sampler
-        print(f"[setup] after view 2: {planner.mapper.num_rays} rays in the buffer; rays per iteration "
-              f"{sampler.batch_new} new + {sampler.batch_buffer if sampler.total_buffer > 0 else 0} replayed")
-        times2, outputs2, it2 = timed_training(planner, ARGS.iterations)
-        s_iter2, n_med2 = median_after(times2, ARGS.warmup)
-        print(f"[train view 2] {len(times2)} iterations (to {it2}), total {times2.sum():.2f} s; median of the last "
-              f"{n_med2}: {s_iter2:.4f} s/iteration; rgb_loss {outputs2['rgb_loss']:.4f}, psnr {outputs2['psnr']:.2f}")
+    s_iter2 = ingest_and_train(planner, "2", gazebo2opencv, view_to_pose)[0] if ARGS.views == 2 else None
 
     if ARGS.depth_check_stride > 0:
         depth_check(planner, BatchRenderer, 0, "", ARGS.depth_check_stride)
@@ -356,7 +350,7 @@ def main():
           f"{rss_train:.0f} MiB, after planning {rss_plan:.0f} MiB")
     extra = f" s/iteration(view2, 8000 rays)={s_iter2:.4f}" if s_iter2 is not None else ""
     print(f"SUMMARY authors threads={ARGS.threads} s/iteration={s_iter:.4f} (view1, {sampler_rays(planner, 1)} rays, median "
-          f"of {n_med} of {len(times1)}) s/candidate={s_cand:.4f} ({n_scored} scored; plan_next_view {t_plan:.2f} s)"
+          f"of {n_med} of {ARGS.iterations}) s/candidate={s_cand:.4f} ({n_scored} scored; plan_next_view {t_plan:.2f} s)"
           f"{extra} peak_rss={rss:.0f} MiB")
     s_step_iter = s_iter if s_iter2 is None else s_iter2
     print(f"the authors' step without evaluation: 200 x {s_step_iter:.3f} s per iteration "

@@ -38,8 +38,9 @@ from stair_lite.utility import FieldSnapshot, score_views
 # the authors' code (dmar-bonn/stair, unmodified) measured beside ours on this machine (benchmarks/authors_step.py):
 # seconds per 8000-ray training iteration and per candidate in their planner's batched calls; a step trains 200
 # iterations and scores 200 candidates
-AUTHORS_ITERATION_S, AUTHORS_CANDIDATE_S, AUTHORS_CANDIDATES = 0.964, 0.364, 200
-AUTHORS_STEP_S = 200 * AUTHORS_ITERATION_S + AUTHORS_CANDIDATES * AUTHORS_CANDIDATE_S
+AUTHORS_ITERATION_S, AUTHORS_CANDIDATE_S = 0.964, 0.364
+AUTHORS_ITERATIONS, AUTHORS_CANDIDATES = 200, 200  # their iteration_per_step and num_candidates
+AUTHORS_STEP_S = AUTHORS_ITERATIONS * AUTHORS_ITERATION_S + AUTHORS_CANDIDATES * AUTHORS_CANDIDATE_S
 
 
 def main():
@@ -47,7 +48,8 @@ def main():
     parser.add_argument("--repeats", type=int, default=3, help="timed runs of skip_refresh training iterations")
     parser.add_argument("--planning-steps", type=int, default=1)
     parser.add_argument("--scene", default="scene1")
-    parser.add_argument("--mission", action="store_true", help="measure one whole mission's peak memory instead")
+    parser.add_argument("--mission", action="store_true", help="instead, one whole mission: each step's phases, the mean "
+                        "step against the authors' step, the peak memory")
     parser.add_argument("--evaluate", action="store_true", help="also the paper's evaluation and a whole mission step")
     parser.add_argument("--budget", type=int, default=10, help="(--mission) measurements")
     parser.add_argument("--iterations", type=int, default=None, help="(--mission) training iterations per view "

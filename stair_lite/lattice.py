@@ -100,6 +100,13 @@ class Lattice:
         """Flat index of the vertex nearest to points in vertex units (..., 3) (rounded in place)."""
         return flat_index_of_whole_floats(units.round_().clamp_(0, self.resolution - 1), self.resolution)
 
+    def dilated(self, vertices: torch.Tensor) -> torch.Tensor:
+        """A boolean vertex mask (R^3,) in flat order, grown by one vertex along every axis and diagonal (the 3x3x3
+        neighbourhood of each marked vertex)."""
+        r = self.resolution
+        grown = torch.nn.functional.max_pool3d(vertices.view(1, 1, r, r, r).float(), 3, stride=1, padding=1)
+        return grown.view(-1) > 0
+
     def nearest_layer(self, z: torch.Tensor) -> torch.Tensor:
         """Index of the z-layer nearest to each height z (the same rounding as ``nearest_index``)."""
         r = self.resolution

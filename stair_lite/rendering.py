@@ -226,16 +226,11 @@ def build_skip_grid(field, targets: tuple[int, ...] | None = None, threshold: fl
     ``also_keep`` (R^3,) marks further vertices to keep whatever the field says there (training keeps
     the measured surfaces, so that the field can learn a surface where it believes space is empty)."""
     lattice = field.lattice
-    r = lattice.resolution
     q = field.query(lattice.points(field.device))
-
-    def dilate(mask):
-        return torch.nn.functional.max_pool3d(mask.view(1, 1, r, r, r).float(), 3, stride=1, padding=1).view(-1) > 0
-
     occupied = q["occ"] > threshold
-    keep = dilate(occupied if also_keep is None else occupied | also_keep)
+    keep = lattice.dilated(occupied if also_keep is None else occupied | also_keep)
     if targets is not None:
-        keep &= dilate(torch.isin(q["sem"].argmax(dim=1), torch.as_tensor(targets, device=field.device)))
+        keep &= lattice.dilated(torch.isin(q["sem"].argmax(dim=1), torch.as_tensor(targets, device=field.device)))
     return SkipGrid(keep, lattice)
 
 

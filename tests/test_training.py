@@ -1,3 +1,4 @@
+import copy
 from dataclasses import replace
 
 import numpy as np
@@ -231,3 +232,59 @@ def test_the_skip_grid_is_rebuilt_after_a_measurement_and_every_refresh_not_ever
     trainer.add_measurement(sim.render(view_to_pose(0.6, 1.0)))
     trainer.update(1)
     assert len(builds) == 4  # a new measurement: rebuilt at once
+
+
+class _StockAdam(torch.optim.Adam):
+    """torch's fused Adam over every row, with the trainer's live-row calls ignored: the reference for GridAdam."""
+
+    def mark_live(self, rows=None):
+        pass
+
+
+def test_grid_adam_trains_bit_for_bit_as_torch_adam_while_visiting_only_live_rows(sim):
+    """The trainer's optimiser (GridAdam) steps only the grid rows near cells the skip grid kept; torch's fused Adam
+    over every row gives the same losses, parameters and moments bit for bit, the rows left out have zero moments,
+    and they are most of the grid (so the comparison is not trivially over the same rows)."""
+    cfg = replace(SMALL_TRAIN, skip_refresh=10)
+    trainers = []
+    for stock in (False, True):
+        field = SemanticField(replace(SMALL_FIELD, reached_only=True), seed=0)
+        trainer = Trainer(field, cfg, SMALL_RENDER, seed=0)
+        if stock:
+            trainer.optimizer = _StockAdam(field.param_groups(cfg), betas=(0.9, 0.99), fused=True)
+        losses = []
+        for el, az in ((1.0, 0.5), (0.6, 2.5)):
+            trainer.add_measurement(measurement(sim, el, az))
+            losses += [h.total for h in trainer.update(25)]
+        trainers.append((trainer, losses))
+    (grid_trainer, grid_losses), (stock_trainer, stock_losses) = trainers
+    assert grid_losses == stock_losses
+    for a, b in zip(grid_trainer.field.parameters(), stock_trainer.field.parameters()):
+        assert torch.equal(a, b)
+    optimiser = grid_trainer.optimizer
+    for grid, stock_grid in zip(optimiser.grids, (stock_trainer.field.grid_occ, stock_trainer.field.grid_app)):
+        for moment in ("exp_avg", "exp_avg_sq"):
+            assert torch.equal(optimiser.state[grid][moment], stock_trainer.optimizer.state[stock_grid][moment])
+            assert not optimiser.state[grid][moment][~optimiser.live_rows].any()
+    covered = sum(stop - start for start, stop in optimiser.spans) / len(optimiser.live_rows)
+    assert covered < 0.6
+
+
+def test_grid_adam_continues_from_a_state_dict_with_the_rows_it_had_visited(sim):
+    """A trainer restored from a state dict marks as live every row whose moments are not zero (fewer than training
+    marked: those near kept cells): it continues exactly as the trainer it was saved from."""
+    trainers = []
+    for _ in range(2):
+        trainer = Trainer(SemanticField(replace(SMALL_FIELD, reached_only=True), seed=0), SMALL_TRAIN, SMALL_RENDER, seed=0)
+        trainer.add_measurement(measurement(sim, 1.0, 0.5))
+        trainers.append(trainer)
+    first, second = trainers
+    first.update(15)
+    second.field.load_state_dict(first.field.state_dict())
+    second.load_state_dict(copy.deepcopy(first.state_dict()))  # (torch's optimiser state dict holds the live moments)
+    restored, marked = second.optimizer.live_rows, first.optimizer.live_rows
+    assert restored.any() and not (restored & ~marked).any()  # the rows with moments: within the rows marked in training
+    m = measurement(sim, 0.6, 2.5)
+    for trainer in trainers:
+        trainer.add_measurement(m)
+    assert [h.total for h in first.update(10)] == [h.total for h in second.update(10)]

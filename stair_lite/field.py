@@ -107,7 +107,7 @@ class Located:
 
     def share_of(self, vertices: torch.Tensor) -> torch.Tensor:
         """The trilinear share (N,) of the points' corners that are set in a boolean vertex mask (R^3,)."""
-        return (self.weights * vertices[self.index]).sum(dim=1)
+        return (self.weights * vertices.index_select(0, self.index.view(-1)).view(self.index.shape)).sum(dim=1)
 
     def subset(self, rows: torch.Tensor) -> "Located":
         """The same for the points selected by ``rows`` (a boolean mask or indices); gamma(x) is taken along when

@@ -25,6 +25,9 @@ sensor_msgs, cv_bridge (their Gazebo link), open3d (the explicit mapper), lpips 
 visualisation helper), tools.libmcubes and tools.libmise (unbuilt extensions for saving meshes); each raises if called,
 except the ROS ones that stand in for the simulator at construction.
 
+With ``--views 2`` and the full schedule the figures are stored with this machine's CPU (``--record``, default
+runs/authors/step.json): ``bench_paper_cpu.py`` divides by that step on the same CPU.
+
 Run (quiet machine): python benchmarks/authors_step.py --stair PATH --views 2 [--iterations 200 --warmup 150]"""
 from __future__ import annotations
 
@@ -34,6 +37,8 @@ import resource
 import sys
 import time
 import types
+
+from authors_record import RECORD_DEFAULT, write_record
 
 MEASUREMENT_DEFAULT = "runs/authors/measurement.npz"
 
@@ -53,6 +58,8 @@ def parse_args():
     ap.add_argument("--stair", required=True, help="a checkout of the authors' repository (unmodified)")
     ap.add_argument("--depth-check-stride", type=int, default=4, help="pixel stride of the depth check render "
                     "(4: 100x100 rays); 0 skips it")
+    ap.add_argument("--record", default=RECORD_DEFAULT, help="where the figures are stored with this machine's CPU, "
+                    "for bench_paper_cpu.py's step ratio (written with --views 2 and the full schedule only)")
     ap.add_argument("--exp-path", default="runs/authors/experiment", help="their --exp_path (nothing is written "
                     "there by this harness)")
     return ap.parse_args()
@@ -356,6 +363,10 @@ def main():
     print(f"the authors' step without evaluation: 200 x {s_step_iter:.3f} s per iteration "
           f"({'8000' if s_iter2 is not None else sampler_rays(planner, 1)} rays) + 200 x {s_cand:.3f} s per candidate = "
           f"{200 * s_step_iter + 200 * s_cand:.0f} s")
+    if s_iter2 is not None and ARGS.iterations == 200 and ARGS.candidates == 200:
+        write_record(ARGS.record, threads=ARGS.threads, iteration_s=round(s_iter2, 4), candidate_s=round(s_cand, 4),
+                     step_s=round(200 * s_iter2 + 200 * s_cand, 1), peak_rss_mib=round(rss))
+        print(f"wrote {ARGS.record}")
 
 
 def sampler_rays(planner, view_count):

@@ -4,12 +4,13 @@ samples, from the field snapshot), one planning step (the two-stage search over 
 the process's peak memory. With ``--evaluate``, also the paper's evaluation of the field and one whole mission step
 (planning, the preset's iterations, evaluation) against the authors' step without any evaluation.
 
-The authors' step: their code (dmar-bonn/stair, unmodified, on this CPU at 2 torch threads, measured with
-``benchmarks/authors_step.py`` on our scene 1's top view and a second view): 0.964 s per training iteration of
-their 8000-ray batch (4000 new + 4000 replayed rays, from their second view on; 0.772 s with the first view's 4000),
-0.364 s per candidate in their planner's two batched calls of 100 (80 x 80 rays, 440 samples per ray); a step trains
-200 iterations and scores 200 candidates: 200 x 0.964 + 200 x 0.364 = 266 s, before the mesh and model their loop
-saves after every step.
+The authors' step: their code (dmar-bonn/stair, unmodified, at 2 torch threads, measured with
+``benchmarks/authors_step.py`` on our scene 1's top view and a second view) trains 200 iterations of their 8000-ray
+batch (4000 new + 4000 replayed rays, from their second view on) and scores 200 candidates in their planner's two
+batched calls of 100 (80 x 80 rays, 440 samples per ray), before the mesh and model their loop saves after every step.
+The ratio divides by that step as measured on this machine's CPU (``authors_step.py`` stores it, with the CPU's name, in
+runs/authors/step.json); without such a record, by the constants below, measured on an AMD EPYC (and it says so): a
+ratio across two CPUs is not the target's.
 
 Run: .venv/bin/python benchmarks/bench_paper_cpu.py [--repeats 3] [--planning-steps 1] [--evaluate]
      .venv/bin/python benchmarks/bench_paper_cpu.py --mission [--budget 10] [--iterations 200]
@@ -35,12 +36,24 @@ from stair_lite.mission import Mission, MissionConfig, World, build_map
 from stair_lite.planners import make_planner
 from stair_lite.utility import FieldSnapshot, score_views
 
-# the authors' code (dmar-bonn/stair, unmodified) measured beside ours on this machine (benchmarks/authors_step.py):
-# seconds per 8000-ray training iteration and per candidate in their planner's batched calls; a step trains 200
-# iterations and scores 200 candidates
+from authors_record import RECORD_DEFAULT, cpu_model, read_record
+
+# the authors' code (dmar-bonn/stair, unmodified) measured on an AMD EPYC at 2 threads (benchmarks/authors_step.py,
+# 2026-12-07): seconds per 8000-ray training iteration and per candidate in their planner's batched calls; a step trains
+# 200 iterations and scores 200 candidates. Used only where no record of this machine's CPU exists
 AUTHORS_ITERATION_S, AUTHORS_CANDIDATE_S = 0.964, 0.364
 AUTHORS_ITERATIONS, AUTHORS_CANDIDATES = 200, 200  # their iteration_per_step and num_candidates
 AUTHORS_STEP_S = AUTHORS_ITERATIONS * AUTHORS_ITERATION_S + AUTHORS_CANDIDATES * AUTHORS_CANDIDATE_S
+AUTHORS_STEP_CPU = "AMD EPYC"
+
+
+def authors_step(record_path: str = RECORD_DEFAULT) -> tuple[float, str]:
+    """The authors' step without evaluation [s] and where it was measured: this CPU's record, else the constants."""
+    record = read_record(record_path)
+    if record is not None:
+        return record["step_s"], f"measured on this CPU ({record['cpu']}, {record['threads']} threads; {record_path})"
+    return AUTHORS_STEP_S, (f"measured on an {AUTHORS_STEP_CPU}, not on this CPU ({cpu_model()}): run "
+                            f"benchmarks/authors_step.py --views 2 here for the target's ratio")
 
 
 def main():
@@ -117,9 +130,10 @@ def main():
         iteration = statistics.median(times)
         step = statistics.median(steps) + tc.iterations_per_view * iteration + t_eval
         print(f"the paper's evaluation of this field (PSNR {result['psnr']:.2f} dB, F1 {result['f1']:.3f}): {t_eval:.1f} s")
+        theirs, where = authors_step()
         print(f"one mission step: planning {statistics.median(steps):.1f} s + {tc.iterations_per_view} iterations x "
               f"{iteration:.2f} s + evaluation {t_eval:.1f} s = {step:.0f} s; the authors' step without evaluation "
-              f"{AUTHORS_STEP_S:.0f} s: {step / AUTHORS_STEP_S:.2f} of it (target 0.2)")
+              f"{theirs:.0f} s ({where}): {step / theirs:.2f} of it (target 0.2)")
     print(f"peak resident memory: {peak_gb():.2f} GB (after training: {peak_after_training:.2f} GB)")
 
 
@@ -143,8 +157,9 @@ def whole_mission(preset, scene: str, budget: int, iterations: int | None) -> No
           f"evaluation after every step: peak resident memory {peak_gb():.2f} GB")
     if full_schedule:
         mean = statistics.mean(steps)
+        theirs, where = authors_step()
         print(f"mean step {mean:.1f} s (median {statistics.median(steps):.1f} s); the authors' step without evaluation "
-              f"{AUTHORS_STEP_S:.0f} s: {mean / AUTHORS_STEP_S:.2f} of it (target 0.2)")
+              f"{theirs:.0f} s ({where}): {mean / theirs:.3f} of it (target 0.2)")
 
 
 def peak_gb() -> float:

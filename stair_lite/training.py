@@ -173,8 +173,10 @@ class GridAdam(torch.optim.Adam):
     rows ``mark_live`` whenever it builds a skip grid, or every row when it trains without one. The step and
     ``zero_grad`` then visit the grids' runs of whole x-lines (R rows) that hold a live row, as slices: at the paper's
     128^3 about 40 % of each grid, where the step over every row (33.5 M values) was a third of a training
-    iteration's time. Rows outside are not read or written; a test checks the parameters, moments and losses
-    against ``torch.optim.Adam(fused=True)`` bit for bit."""
+    iteration's time. Whole lines, not single rows: every slice's length is then a multiple of 128 x C values, as the
+    whole table's is (a gather of arbitrary rows into one compact table, whose length is not, was measured to give a
+    few values other bits: the kernel's vector loop and its scalar remainder round differently). Rows outside are not read or written; a test checks the
+    parameters, moments and losses against ``torch.optim.Adam(fused=True)`` bit for bit."""
 
     def __init__(self, field, cfg: TrainConfig):
         super().__init__(field.param_groups(cfg), betas=(0.9, 0.99), fused=True)

@@ -7,6 +7,7 @@ replayed inversely proportional to how often it has been used (paper Sec. III-B)
 """
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -186,6 +187,13 @@ class GridAdam(torch.optim.Adam):
         self._spans: list[tuple[int, int]] | None = []  # the live runs of lines, as row ranges (None: to recompute)
         if any(grid.shape[0] != len(self.live_rows) for grid in self.grids):
             raise ValueError(f"the grids have {[g.shape[0] for g in self.grids]} rows, not one row per lattice vertex")
+        if any(self.grid_group[option] for option in ("amsgrad", "maximize", "weight_decay", "decoupled_weight_decay")):
+            raise ValueError("GridAdam takes plain Adam: no amsgrad, maximize or weight decay")
+
+    @property
+    def grid_group(self) -> dict:
+        """The parameter group of the grids (looked up each time: loading a state dict replaces the groups)."""
+        return next(g for g in self.param_groups if any(p is self.grids[0] for p in g["params"]))
 
     def mark_live(self, rows: torch.Tensor | None = None) -> None:
         """Rows (a boolean mask over the lattice's vertices; None: all) that gradients may reach from now on."""
@@ -210,32 +218,36 @@ class GridAdam(torch.optim.Adam):
                 if moment in self.state[grid]:
                     self.mark_live((self.state[grid][moment] != 0).any(dim=1))
 
-    def zero_grad(self, set_to_none: bool = True) -> None:
-        """As torch's, but the grids' gradients are zeroed in place on the live spans only (nothing else was written)."""
-        grids = [grid.grad for grid in self.grids]
+    @contextlib.contextmanager
+    def _grids_left_out(self):
+        """torch's own step and zero_grad leave out a parameter without a gradient: the grids' are set aside meanwhile
+        (and given to the block)."""
+        grads = [grid.grad for grid in self.grids]
         for grid in self.grids:
             grid.grad = None
-        super().zero_grad(set_to_none)
-        for grid, grad in zip(self.grids, grids):
-            if grad is not None and not set_to_none:
+        try:
+            yield grads
+        finally:
+            for grid, grad in zip(self.grids, grads):
+                grid.grad = grad
+
+    def zero_grad(self, set_to_none: bool = True) -> None:
+        """As torch's, but the grids' gradients are zeroed in place on the live spans only (nothing else was written)."""
+        with self._grids_left_out() as grads:
+            super().zero_grad(set_to_none)
+        for grid, grad in zip(self.grids, grads):
+            if grad is not None and set_to_none:
+                grid.grad = None
+            elif grad is not None:
                 for start, stop in self.spans:
                     grad[start:stop].zero_()
-                grid.grad = grad
 
     @torch.no_grad()
     def step(self) -> None:
         """torch's fused step on the other parameters; on the grids the same kernel over the live spans."""
-        grads = [grid.grad for grid in self.grids]
-        for grid in self.grids:
-            grid.grad = None  # torch's step leaves out a parameter without a gradient
-        try:
+        with self._grids_left_out():
             super().step()
-        finally:
-            for grid, grad in zip(self.grids, grads):
-                grid.grad = grad
-        group = next(g for g in self.param_groups if any(p is self.grids[0] for p in g["params"]))
-        if group["amsgrad"] or group["maximize"] or group["weight_decay"] or group["decoupled_weight_decay"]:
-            raise ValueError("GridAdam takes plain Adam: no amsgrad, maximize or weight decay")
+        group = self.grid_group
         for grid in self.grids:
             if grid.grad is None:
                 continue

@@ -291,10 +291,12 @@ class SemanticField(nn.Module):
 
     @torch.no_grad()
     def query(self, x: torch.Tensor, chunk: int = 262144) -> dict[str, torch.Tensor]:
-        """Occupancy and semantic probabilities at many points, in chunks, without gradients."""
-        occ, sem = [], []
-        for part in torch.split(x, chunk):
-            located = self.locate(part)
-            occ.append(self.occupancy_at(located))
-            sem.append(class_probabilities(self.appearance_at(located)[1]))
-        return {"occ": torch.cat(occ), "sem": torch.cat(sem)}
+        """Occupancy and semantic probabilities at many points, in chunks written into the outputs, without
+        gradients."""
+        occ = torch.empty(len(x), device=x.device)
+        sem = torch.empty(len(x), self.cfg.sem_channels, device=x.device)
+        for start in range(0, len(x), chunk):
+            located = self.locate(x[start : start + chunk])
+            occ[start : start + chunk] = self.occupancy_at(located)
+            sem[start : start + chunk] = class_probabilities(self.appearance_at(located)[1])
+        return {"occ": occ, "sem": sem}

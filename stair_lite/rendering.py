@@ -34,25 +34,26 @@ def ray_box_intersection(origins: torch.Tensor, dirs: torch.Tensor, bound, near:
 
 
 def reached_vertices(lattice: Lattice, origins: torch.Tensor, dirs: torch.Tensor, depth: torch.Tensor, near: float,
-                     rays_per_chunk: int = 16384) -> torch.Tensor:
+                     rays_per_chunk: int = 16384, rays_per_part: int = 2048) -> torch.Tensor:
     """Which lattice vertices (a boolean mask in flat order) belong to a cell the rays pass through in front of their
     measured depth (the whole way through the cube for a ray that hit nothing, depth 0), their surface points'
     cells included: where the measurements say something. Points every half vertex spacing along each ray mark
-    their cells; a vertex is reached when one of its 8 cells is."""
+    their cells (``n`` points per ray, from the longest ray of its chunk of ``rays_per_chunk``); a vertex is reached
+    when one of its 8 cells is. The points are made ``rays_per_part`` rays at a time (the same points: a part's rays
+    keep their chunk's ``n``): a chunk's side-view rays hold up to about 7e6 points, 0.5 GB of working arrays at once."""
     r = lattice.resolution
     t_near, t_far, hit = ray_box_intersection(origins, dirs, lattice.bound, near)
     t_end = torch.where(depth > 0, torch.minimum(t_far, depth), t_far)
     rows = torch.nonzero(hit & (t_end >= t_near)).squeeze(1)
     cells = torch.zeros((r - 1) ** 3, dtype=torch.bool, device=origins.device)
     for chunk in torch.split(rows, rays_per_chunk):
-        length = t_end[chunk] - t_near[chunk]
-        n = int(torch.ceil(length.max() / (0.5 * lattice.spacing))) + 1
-        t = t_near[chunk, None] + length[:, None] * torch.linspace(0.0, 1.0, n, device=origins.device)
-        points = origins[chunk, None, :] + t[..., None] * dirs[chunk, None, :]
-        del t  # each array freed as soon as it is used: a chunk's side-view rays hold up to about 7e6 points
-        cell = lattice.vertex_units(points.reshape(-1, 3)).floor_().clamp_(0, r - 2)
-        del points
-        cells[flat_index_of_whole_floats(cell, r - 1)] = True
+        n = int(torch.ceil((t_end[chunk] - t_near[chunk]).max() / (0.5 * lattice.spacing))) + 1
+        steps = torch.linspace(0.0, 1.0, n, device=origins.device)
+        for part in torch.split(chunk, rays_per_part):
+            t = t_near[part, None] + (t_end[part] - t_near[part])[:, None] * steps
+            points = origins[part, None, :] + t[..., None] * dirs[part, None, :]
+            cell = lattice.vertex_units(points.reshape(-1, 3)).floor_().clamp_(0, r - 2)
+            cells[flat_index_of_whole_floats(cell, r - 1)] = True
     # a vertex is reached when any of the (up to) 8 cells around it is: a 2x2x2 max over the zero-padded cell grid
     padded = torch.nn.functional.pad(cells.view(1, 1, r - 1, r - 1, r - 1).float(), (1, 1, 1, 1, 1, 1))
     return (torch.nn.functional.max_pool3d(padded, kernel_size=2, stride=1) > 0).reshape(-1)

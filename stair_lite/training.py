@@ -365,4 +365,8 @@ class Trainer:
                 self.optimizer.mark_live(self.field.lattice.dilated(self.skip.keep))  # the kept cells' corners
                 self._skip_built_at = self.iterations
             history.append(self.step(self._batch(index)))
+        # the grids' gradient tables, each as large as its grid, are not kept between updates: planning and evaluation
+        # run without them (the next update's first pass makes a new zero table: the same floats, tested)
+        for grid in (self.field.grid_occ, self.field.grid_app):
+            grid.grad = None
         return history

@@ -161,18 +161,22 @@ class FieldSnapshot:
 def _unknown_near_targets_as_targets(lattice: Lattice, occ: torch.Tensor, sem: torch.Tensor, unknown: torch.Tensor,
                                      targets: tuple[int, ...], radius: float) -> torch.Tensor:
     """Class probabilities where unknown vertices within ``radius`` of a target surface vertex (occupied, a target
-    class by argmax) take the class of the nearest such vertex: the unseen part of a target may continue there."""
+    class by argmax) take the class of the nearest such vertex: the unseen part of a target may continue there.
+    ``sem`` is changed in place (only those rows are written; no table of all vertices is built) and returned."""
     from scipy.ndimage import distance_transform_edt
 
     r = lattice.resolution
-    surface = (occ > 0.5) & torch.isin(sem.argmax(dim=1), torch.as_tensor(targets, device=sem.device)) & ~unknown
+    labels = sem.argmax(dim=1)
+    surface = (occ > 0.5) & torch.isin(labels, torch.as_tensor(targets, device=sem.device)) & ~unknown
     if not bool(surface.any()):
         return sem
     distance, nearest = distance_transform_edt(~surface.view(r, r, r).cpu().numpy(), return_indices=True)
-    near = torch.as_tensor(distance.reshape(-1) * lattice.spacing <= radius, device=sem.device) & unknown
-    source = torch.as_tensor(np.ravel_multi_index(nearest.reshape(3, -1), (r, r, r)), device=sem.device)
-    classes = sem[source].argmax(dim=1)
-    return torch.where(near[:, None], F.one_hot(classes, sem.shape[1]).to(sem.dtype), sem)
+    near = (torch.as_tensor(distance.reshape(-1) * lattice.spacing <= radius, device=sem.device) & unknown).nonzero()
+    near = near.squeeze(1)
+    rows = near.cpu().numpy()
+    source = np.ravel_multi_index(tuple(axis.reshape(-1)[rows] for axis in nearest), (r, r, r))
+    sem[near] = F.one_hot(labels[torch.as_tensor(source, device=sem.device)], sem.shape[1]).to(sem.dtype)
+    return sem
 
 
 def exact_samples(field, points: torch.Tensor) -> torch.Tensor:

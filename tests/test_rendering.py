@@ -113,7 +113,8 @@ def test_a_ray_reaches_the_cells_in_front_of_its_depth_and_a_miss_crosses_the_cu
 def test_reached_vertices_marks_the_cells_of_its_points_along_each_ray():
     """Against the rule computed the plain way, on random rays (hits and misses) of a paper-size lattice: the cell of
     every point along a ray, every half vertex spacing up to its depth, by integer indices (``flat_index``); the
-    function computes the index as one float product, in place, to hold less memory at once."""
+    function computes the index as one float product, in place, and makes the points a part of the chunk's rays at a
+    time (with the chunk's number of points per ray), to hold less memory at once."""
     from stair_lite.lattice import Lattice, flat_index
     from stair_lite.rendering import reached_vertices
 
@@ -141,6 +142,7 @@ def test_reached_vertices_marks_the_cells_of_its_points_along_each_ray():
                 vertices[dz:dz + r - 1, dy:dy + r - 1, dx:dx + r - 1] |= marked
     assert len(rows) > 1000
     assert torch.equal(reached_vertices(lattice, origins, dirs, depth, near), vertices.reshape(-1))
+    assert torch.equal(reached_vertices(lattice, origins, dirs, depth, near, rays_per_part=257), vertices.reshape(-1))
 
 def kept_samples(skip, origins, dirs, cfg):
     """Which of every ray's unjittered render samples (R, S) lie in a cell ``skip`` keeps, and their parameters t,

@@ -288,3 +288,27 @@ def test_grid_adam_continues_from_a_state_dict_with_the_rows_it_had_visited(sim)
     for trainer in trainers:
         trainer.add_measurement(m)
     assert [h.total for h in first.update(10)] == [h.total for h in second.update(10)]
+
+
+def test_an_update_leaves_no_gradient_table_and_the_next_one_trains_as_with_a_zeroed_table(sim):
+    """Between updates the grids hold no gradient table (one is as large as its grid: planning and evaluation run
+    without them); the next update starts a zero table, and trains bit for bit as a trainer whose tables were kept,
+    zeroed, between its updates."""
+    trainers = []
+    for keep in (False, True):
+        field = SemanticField(replace(SMALL_FIELD, reached_only=True), seed=0)
+        trainer, losses = Trainer(field, SMALL_TRAIN, SMALL_RENDER, seed=0), []
+        for el, az in ((1.0, 0.5), (0.6, 2.5)):
+            trainer.add_measurement(measurement(sim, el, az))
+            for _ in range(2):
+                losses += [h.total for h in trainer.update(6)]
+                assert field.grid_occ.grad is None and field.grid_app.grad is None
+                if keep:
+                    for grid in (field.grid_occ, field.grid_app):
+                        grid.grad = torch.zeros_like(grid)
+        trainers.append((trainer, losses))
+    (dropped, dropped_losses), (kept, kept_losses) = trainers
+    assert dropped_losses == kept_losses
+    for a, b in zip(dropped.field.parameters(), kept.field.parameters()):
+        assert torch.equal(a, b)
+

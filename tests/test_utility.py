@@ -331,3 +331,28 @@ def test_unknown_among_the_cameras_pulls_views_only_when_the_whole_cube_is_marke
                   for name in ("stair", "stair_volume"))
     assert cube[0] > 1.5 * cube[1]
     assert ball[0] == pytest.approx(ball[1], rel=0.05)
+
+
+def test_unknown_vertices_near_a_target_surface_take_its_class_as_the_dense_rule_gives():
+    """Planning's snapshot gives each unknown vertex within the radius of a target surface vertex (occupied, a target
+    by argmax, known) the one-hot class of the nearest such vertex, and leaves every other row as it was: against the
+    rule over every vertex at once (a one-hot table of all vertices, chosen row by row), on a random field."""
+    import torch.nn.functional as F
+    from scipy.ndimage import distance_transform_edt
+
+    from stair_lite.lattice import Lattice
+    from stair_lite.utility import _unknown_near_targets_as_targets
+
+    lattice, targets, radius = Lattice(24), (3, 5), 0.3
+    gen = torch.Generator().manual_seed(0)
+    occ = torch.rand(24**3, generator=gen)
+    sem = torch.softmax(3 * torch.randn(24**3, 7, generator=gen), dim=1)
+    unknown = torch.rand(24**3, generator=gen) < 0.4
+    surface = (occ > 0.5) & torch.isin(sem.argmax(dim=1), torch.tensor(targets)) & ~unknown
+    distance, nearest = distance_transform_edt(~surface.view(24, 24, 24).numpy(), return_indices=True)
+    near = torch.as_tensor(distance.reshape(-1) * lattice.spacing <= radius) & unknown
+    source = torch.as_tensor(np.ravel_multi_index(nearest.reshape(3, -1), (24, 24, 24)))
+    expected = torch.where(near[:, None], F.one_hot(sem[source].argmax(dim=1), 7).to(sem.dtype), sem)
+    assert 0 < int(near.sum()) < int(unknown.sum())  # some unknown rows change, others do not
+    assert torch.equal(_unknown_near_targets_as_targets(lattice, occ, sem.clone(), unknown, targets, radius), expected)
+

@@ -171,9 +171,9 @@ def _unknown_near_targets_as_targets(lattice: Lattice, occ: torch.Tensor, sem: t
     if not bool(surface.any()):
         return sem
     distance, nearest = distance_transform_edt(~surface.view(r, r, r).cpu().numpy(), return_indices=True)
-    near = (torch.as_tensor(distance.reshape(-1) * lattice.spacing <= radius, device=sem.device) & unknown).nonzero()
-    near = near.squeeze(1)
-    rows = near.cpu().numpy()
+    within = torch.as_tensor(distance.reshape(-1) * lattice.spacing <= radius, device=sem.device)
+    near = (within & unknown).nonzero().squeeze(1)
+    rows = near.cpu().numpy()  # the nearest surface vertex of each: its flat index
     source = np.ravel_multi_index(tuple(axis.reshape(-1)[rows] for axis in nearest), (r, r, r))
     sem[near] = F.one_hot(labels[torch.as_tensor(source, device=sem.device)], sem.shape[1]).to(sem.dtype)
     return sem

@@ -124,16 +124,25 @@ class Located:
         return _TrilinearLookup.apply(table, self.index, self.weights, self.grad_into_existing)
 
 
-def mlp_on_parts(net: nn.Sequential, *parts: torch.Tensor) -> torch.Tensor:
-    """``net(torch.cat(parts, dim=1))`` without building the concatenated input: the first linear layer is applied
-    to each part with its slice of the weights, and the products summed (the same sum in another order; a
-    concatenation of narrow columns is a row-by-row copy on a CPU, as costly as the layer itself)."""
-    first, start, out = net[0], 0, None
+def first_layer_on_parts(first: nn.Linear, parts, in_place: bool = False) -> torch.Tensor:
+    """``first(torch.cat(parts, dim=1))`` without building the concatenated input: the layer is applied to each part
+    with its slice of the weights, and the products summed (the same sum in another order; a concatenation of narrow
+    columns is a row-by-row copy on a CPU, as costly as the layer itself). ``in_place``: each later product is added
+    inside its matrix product (``addmm_``, no gradients; no separate pass over the sum)."""
+    start, out = 0, None
     for part in parts:
-        term = F.linear(part, first.weight[:, start : start + part.shape[1]], first.bias if out is None else None)
-        out = term if out is None else out + term
+        weight = first.weight[:, start : start + part.shape[1]]
+        if out is None:
+            out = F.linear(part, weight, first.bias)
+        else:
+            out = out.addmm_(part, weight.t()) if in_place else out + F.linear(part, weight)
         start += part.shape[1]
-    return net[1:](out)
+    return out
+
+
+def mlp_on_parts(net: nn.Sequential, *parts: torch.Tensor) -> torch.Tensor:
+    """``net(torch.cat(parts, dim=1))``, its first layer applied part by part (``first_layer_on_parts``)."""
+    return net[1:](first_layer_on_parts(net[0], parts))
 
 
 @torch.no_grad()
@@ -147,12 +156,7 @@ def mlp_on_parts_in_blocks(net: nn.Sequential, *parts: torch.Tensor, rows: int =
         raise ValueError(f"mlp_on_parts_in_blocks takes a mlp() of linear layers with a ReLU between them, got {net}")
     out = torch.empty(len(parts[0]), linears[-1].out_features, dtype=parts[0].dtype, device=parts[0].device)
     for start in range(0, len(out), rows):
-        hidden, column = None, 0
-        for part in parts:
-            weight = linears[0].weight[:, column : column + part.shape[1]]
-            block = part[start : start + rows]
-            hidden = F.linear(block, weight, linears[0].bias) if hidden is None else hidden.addmm_(block, weight.t())
-            column += part.shape[1]
+        hidden = first_layer_on_parts(linears[0], [part[start : start + rows] for part in parts], in_place=True)
         for layer in linears[1:]:
             hidden = F.linear(hidden.relu_(), layer.weight, layer.bias)
         out[start : start + rows] = hidden

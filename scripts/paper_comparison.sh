@@ -9,12 +9,15 @@
 # 18-63 minutes (STE 4-30): start it when nothing is being measured, and commit the finished cells as they land. Ctrl-C
 # in the terminal stops every lane (they share its process group); an unfinished mission resumes from its last finished
 # step.
-#   bash scripts/paper_comparison.sh [SEEDS] [WORKERS] [DEVICE]     (default: 3 seeds, 2 workers, cpu)
+#   bash scripts/paper_comparison.sh [SEEDS] [WORKERS] [DEVICE] [OUT]
+#   (default: 3 seeds, 2 workers, cpu, the stored study's folder data/results/comparison_paper; a run on another
+#   device goes to a folder of its own, e.g. runs/gpu/comparison_paper: the stored study's finished cells are kept, not run again)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seeds=${1:-3}
 workers=${2:-2}
 device=${3:-cpu}
+out=${4:-data/results/comparison_paper}
 PY=${PY:-.venv/bin/python}
 scenes=(scene1 scene2 scene3 scene4)
 for seed in $(seq 0 $((seeds - 1))); do
@@ -25,7 +28,7 @@ for seed in $(seq 0 $((seeds - 1))); do
         if (( i % workers == lane )); then
           "$PY" -m stair_lite sweep --scenes "${scenes[$i]}" --planners stair,exploration,fixed,max_distance,ste \
             --first-seed "$seed" --seeds 1 --workers 1 --preset paper --device "$device" --quiet \
-            --out data/results/comparison_paper
+            --out "$out"
         fi
       done
     ) &

@@ -244,7 +244,10 @@ def render_uncertainty(
     if min_ray_opacity > 0:
         h_ray = h_ray * (weights.sum(dim=1) > min_ray_opacity)
     sem = torch.bmm(weights[:, None, :], probs).squeeze(1)  # sum_i w_i s_i, one small product per ray
-    sem[:, BACKGROUND] += 1.0 - weights.sum(dim=1)
+    # what the ray does not hit is background: 1 - sum_i w_i, which rounding can make a hair negative on a ray that
+    # saturates (o = 0.5 in the marked unknown); clamped, so that a ray through space of no class (uniform class
+    # probabilities) ties and renders as background instead of as the class after it (class 1, the car)
+    sem[:, BACKGROUND] += (1.0 - weights.sum(dim=1)).clamp(min=0.0)
     v, h, w = len(poses), intrinsics.height, intrinsics.width
     return {"h_ray": h_ray.view(v, h, w), "sem": sem.view(v, h, w, NUM_CLASSES), "h_sem": class_entropy(sem).view(v, h, w)}
 

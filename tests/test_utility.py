@@ -3,6 +3,7 @@ import pytest
 import torch
 
 import stair_lite  # noqa: F401
+from stair_lite.classes import BACKGROUND
 from stair_lite.config import FieldConfig, PlanConfig, get_preset
 from stair_lite.field import SemanticField
 from stair_lite.geometry import Intrinsics, fibonacci_hemisphere, view_to_pose, view_to_position
@@ -356,3 +357,31 @@ def test_unknown_vertices_near_a_target_surface_take_its_class_as_the_dense_rule
     assert 0 < int(near.sum()) < int(unknown.sum())  # some unknown rows change, others do not
     assert torch.equal(_unknown_near_targets_as_targets(lattice, occ, sem.clone(), unknown, targets, radius), expected)
 
+
+
+class UniformClassSlabField(SlabField):
+    """A slab with no class preferred (uniform class probabilities), as the marked unknown far from a target: deep
+    enough that every ray through it saturates (its weights sum to 1 up to rounding)."""
+
+    def query(self, x):
+        out = super().query(x)
+        inside = out["sem"][:, 0] == 0
+        out["sem"][inside] = 1.0 / 7
+        return out
+
+
+def test_a_saturated_ray_through_space_of_no_class_renders_as_background_not_as_a_target():
+    """Rounding can make 1 - sum_i w_i a hair negative on a saturated ray; the background's share is clamped at 0, so
+    that the tie of the uniform class probabilities goes to the background (argmax's first index), never to class 1
+    (the car) by a rounding accident; the exploitation of a car target there is 0."""
+    # o = 0.3: the weights' sum rounds above 1 on many rays (at o = 0.5 every product is a power of 2, exact); the
+    # unclamped rule rendered 1375 of these 12288 rays as the car
+    field = UniformClassSlabField(0.3, z0=-0.9, z1=0.9)
+    k, views, n = Intrinsics.from_fov(32, 32, 60), fibonacci_hemisphere(12), 200
+    out = render_uncertainty(field, k, [view_to_pose(*v) for v in views], n)
+    sem = out["sem"]
+    saturated = (sem.sum(dim=-1) - 1).abs() < 1e-5
+    assert saturated.float().mean() > 0.2, "the test needs rays that saturate in the slab"
+    assert torch.all(sem[..., BACKGROUND] >= sem.max(dim=-1).values), "a class other than the background won a tie"
+    assert not target_mask(sem, (1,)).any()
+    assert np.all(score_views(field, views, (1,), k, n, UtilityOptions()).exploitation == 0)

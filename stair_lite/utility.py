@@ -241,13 +241,14 @@ def render_uncertainty(
         occ, entropy = occ.masked_fill(empty, 0.0), entropy.masked_fill(empty, 0.0)
     weights, transmittance = compositing_weights(occ)
     h_ray = (transmittance * entropy).sum(dim=1)  # Eq. 11
+    acc = weights.sum(dim=1)  # the ray's opacity
     if min_ray_opacity > 0:
-        h_ray = h_ray * (weights.sum(dim=1) > min_ray_opacity)
+        h_ray = h_ray * (acc > min_ray_opacity)
     sem = torch.bmm(weights[:, None, :], probs).squeeze(1)  # sum_i w_i s_i, one small product per ray
     # what the ray does not hit is background: 1 - sum_i w_i, which rounding can make a hair negative on a ray that
     # saturates (o = 0.5 in the marked unknown); clamped, so that a ray through space of no class (uniform class
     # probabilities) ties and renders as background instead of as the class after it (class 1, the car)
-    sem[:, BACKGROUND] += (1.0 - weights.sum(dim=1)).clamp(min=0.0)
+    sem[:, BACKGROUND] += (1.0 - acc).clamp(min=0.0)
     v, h, w = len(poses), intrinsics.height, intrinsics.width
     return {"h_ray": h_ray.view(v, h, w), "sem": sem.view(v, h, w, NUM_CLASSES), "h_sem": class_entropy(sem).view(v, h, w)}
 

@@ -28,7 +28,9 @@ def main():
     args = parser.parse_args()
     mine = [r for r in collect(args.results, log=lambda m: None) if r["variant"] == args.variant]
     pairs = {(r["scene"], r["seed"]) for r in mine}
-    rows = mine + [r for r in collect(args.against, log=lambda m: None) if (r["scene"], r["seed"]) in pairs]
+    # the variant's own missions once, even where --results is the stored comparison itself
+    rows = mine + [r for r in collect(args.against, log=lambda m: None)
+                   if (r["scene"], r["seed"]) in pairs and r["variant"] != args.variant]
     scenes, others = scenes_of(mine), args.others.split(",")
     # pooled: every (scene, seed) one pair
     pooled = [dict(r, scene="all scenes", seed=1000 * scenes.index(r["scene"]) + r["seed"]) for r in rows]

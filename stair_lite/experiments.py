@@ -14,7 +14,6 @@ fused into the explicit map) and ``ste_implicit`` (STE's views used to train the
 from __future__ import annotations
 
 import csv
-import hashlib
 import json
 import os
 import time
@@ -30,7 +29,7 @@ from .metrics import METRICS
 from .mission import Mission, MissionConfig
 from .planners import PLANNERS, REPLAY, is_planner_file, paper_planners, planner_class, planner_file_hash
 from .results_folder import (FORMAT, METRICS_FILE, FolderInUseError, ResultsFolderError, make_output_folder,
-                             upgrade_header, write_json_atomically)
+                             source_hash, upgrade_header, write_json_atomically)
 from .scenes import scene_content_hash, scene_key, scene_path
 from .segmenter import EXACT, label_noise
 
@@ -232,14 +231,6 @@ def reproduction_gaps(stored: list[dict], live: list[dict]) -> list[dict]:
     """Per step of ``live``: whether its view is the stored one (to 1e-9 rad) and the PSNR and F1 differences."""
     return [{"step": new["step"], "same_view": bool(np.allclose(new["view_rad"], old["view_rad"], rtol=0, atol=1e-9)),
              "psnr": abs(new["psnr"] - old["psnr"]), "f1": abs(new["f1"] - old["f1"])} for old, new in zip(stored, live)]
-
-
-def source_hash() -> str:
-    """sha256 of the package's Python sources: which code produced a sweep's results."""
-    digest = hashlib.sha256()
-    for path in sorted(Path(__file__).resolve().parent.rglob("*.py")):
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
 
 
 def check_sweep_folder(root: Path, spec: SweepSpec, log=print) -> None:

@@ -24,7 +24,7 @@ from .geometry import TOP_VIEW, view_to_pose
 from .maps import IMPLICIT, MAP_KINDS, ReconstructionMap
 from .metrics import METRICS
 from .planners import make_planner, planner_class, planner_file_hash
-from .results_folder import FORMAT, METRICS_FILE, ResultsFolder
+from .results_folder import FORMAT, METRICS_FILE, ResultsFolder, source_hash
 from .scenes import load_scene, scene_file_hash
 from .segmenter import EXACT, NoisySegmenter, label_noise
 from .simulator import Simulator
@@ -126,6 +126,7 @@ class Mission:
         self.planner = make_planner(config.planner, self.preset, seed=config.seed + 1, replay=config.replay)
         self.folder = ResultsFolder(out) if out is not None else None
         self.out = Path(out) if out is not None else None
+        self.sources = source_hash()  # recorded with every step: a resumed mission may run on changed code
         self.records: list[dict] = []
         self.saved_steps = 0  # the steps on disk (a resume continues after them)
         if self.folder is not None:
@@ -193,7 +194,7 @@ class Mission:
     def step(self) -> dict:
         """One step: plan (the top view first), move and measure, update the maps, evaluate, record and
         save. Returns the step's record: the view, the planner's scores (``score_columns``), the loss, every
-        registered metric (metrics.py) and the wall time of each phase."""
+        registered metric (metrics.py), the wall time of each phase and the hash of the sources that ran it."""
         if self.finished:
             raise RuntimeError(f"the mission has made all {self.config.budget} measurements of its budget")
         number = len(self.records) + 1
@@ -227,6 +228,7 @@ class Mission:
             "loss_mean_last10": float(np.mean([h.total for h in history[-10:]])) if history else None,
             **{name: metric.value(result, self.map) for name, metric in METRICS.items()},
             "time_s": {"plan": t_plan, "measure": t_measure, "train": t_train, "evaluate": result["time_total_s"]},
+            "source_hash": self.sources,
         }
         if decision is not None and decision.scores is not None:
             record.update(decision.scores.columns(decision.chosen_index))

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import hashlib
 import itertools
 import json
 import os
@@ -21,6 +22,15 @@ METRICS_FILE, CHECKPOINT_FILE, LOCK_FILE = "metrics.json", "checkpoint.pt", ".lo
 # 1: before the version was written (an exact mission's config had no ``label_noise``); 2: every field written
 FORMAT = 2
 _WRITES = itertools.count()  # numbers this process's temporary files (``written_whole``)
+
+
+def source_hash() -> str:
+    """sha256 of the package's Python sources (the first 16 hex digits): which code produced a result. A sweep's
+    ``sweep.json`` records the sources that started it, each step of a mission the sources that ran it."""
+    digest = hashlib.sha256()
+    for path in sorted(Path(__file__).resolve().parent.rglob("*.py")):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
 
 
 def upgrade_header(stored: dict) -> dict:

@@ -8,7 +8,7 @@ import pytest
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
 from stair_lite.mission import Mission, MissionConfig
-from stair_lite.results_folder import FORMAT, FolderInUseError, ResultsFolderError
+from stair_lite.results_folder import FORMAT, FolderInUseError, ResultsFolderError, source_hash
 
 TINY = get_preset("smoke")
 
@@ -88,6 +88,16 @@ def test_the_stored_header_records_what_the_mission_ran_with(tmp_path):
     assert header["config"]["epsilon"] == header["preset"]["plan"]["epsilon"] == 0.5
     assert header["config"]["budget"] == header["preset"]["budget"] == 1
     assert header["config"]["mapper"] == "implicit"
+
+
+def test_each_step_records_the_sources_that_ran_it(tmp_path, monkeypatch):
+    """A resumed mission's steps may run on other code than its first ones: each step names its own."""
+    run(tmp_path, "m", budget=1)
+    monkeypatch.setattr("stair_lite.mission.source_hash", lambda: "0123456789abcdef")  # as if the code had changed
+    run(tmp_path, "m", budget=2, resume=True)
+    steps = json.loads((tmp_path / "m" / "metrics.json").read_text())["steps"]
+    assert [r["source_hash"] for r in steps] == [source_hash(), "0123456789abcdef"]
+    assert len(source_hash()) == 16 and int(source_hash(), 16) >= 0
 
 
 def test_results_folder_is_protected(tmp_path):

@@ -3,7 +3,7 @@ import pytest
 import torch
 
 import stair_lite  # noqa: F401
-from stair_lite.classes import BACKGROUND
+from stair_lite.classes import BACKGROUND, NUM_CLASSES
 from stair_lite.config import FieldConfig, PlanConfig, get_preset
 from stair_lite.field import SemanticField
 from stair_lite.geometry import Intrinsics, fibonacci_hemisphere, view_to_pose, view_to_position
@@ -358,7 +358,6 @@ def test_unknown_vertices_near_a_target_surface_take_its_class_as_the_dense_rule
     assert torch.equal(_unknown_near_targets_as_targets(lattice, occ, sem.clone(), unknown, targets, radius), expected)
 
 
-
 class UniformClassSlabField(SlabField):
     """A slab with no class preferred (uniform class probabilities), as the marked unknown far from a target: deep
     enough that every ray through it saturates (its weights sum to 1 up to rounding)."""
@@ -366,7 +365,7 @@ class UniformClassSlabField(SlabField):
     def query(self, x):
         out = super().query(x)
         inside = out["sem"][:, 0] == 0
-        out["sem"][inside] = 1.0 / 7
+        out["sem"][inside] = 1.0 / NUM_CLASSES
         return out
 
 

@@ -19,14 +19,26 @@ evaluation after every step: 100 test views at 400x400, a 256^3 mesh lattice, 1e
 phases, and its peak memory; with the preset's 200 iterations per view (the default), each step and the mean step
 against the authors' step. A cut schedule (``--iterations 5``) measures the memory, not the time (the batch is the
 paper's).
+     .venv/bin/python benchmarks/bench_paper_cpu.py --work FOLDER [--repeats 2]
+With ``--work``: instead, the work of one step on a stored paper mission's state (FOLDER: a mission's results folder
+with its checkpoint, copied first; the stored one is not changed): 40 training iterations on its newest view, one
+planning step and one evaluation, each at this machine's cores' count of torch threads and at one thread, alternated
+(medians of ``--repeats`` each). At one thread a phase's wall time is its work; a step's work divided by the cores
+is the shortest step that any schedule of the phases on this CPU could reach (the evaluation beside the next step's
+training, say), to set beside a fifth of the authors' step.
 """
 import argparse
+import json
+import os
 import resource
+import shutil
 import statistics
+import tempfile
 import time
 from dataclasses import replace
 
 import numpy as np
+import torch
 
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
@@ -67,10 +79,14 @@ def main():
     parser.add_argument("--budget", type=int, default=10, help="(--mission) measurements")
     parser.add_argument("--iterations", type=int, default=None, help="(--mission) training iterations per view "
                         "(default: the preset's)")
+    parser.add_argument("--work", metavar="FOLDER", help="instead, a step's work at one thread and at all cores, on a "
+                        "stored paper mission's state")
     args = parser.parse_args()
     preset = get_preset("paper")
     if args.mission:
         return whole_mission(preset, args.scene, args.budget, args.iterations)
+    if args.work:
+        return step_work(args.work, args.repeats)
     world = World.build(args.scene, preset)
     scene = world.scene
     implicit = build_map(IMPLICIT, preset, seed=0)
@@ -160,6 +176,45 @@ def whole_mission(preset, scene: str, budget: int, iterations: int | None) -> No
         theirs, where = authors_step()
         print(f"mean step {mean:.1f} s (median {statistics.median(steps):.1f} s); the authors' step without evaluation "
               f"{theirs:.0f} s ({where}): {mean / theirs:.3f} of it (target 0.2)")
+
+
+def step_work(folder: str, repeats: int, iterations: int = 40) -> None:
+    """Each phase of a step on the stored state of ``folder``, at all cores and at one torch thread, alternated; the
+    step's work at one thread (the preset's iterations scaled from ``iterations``) over the cores: a floor for any
+    schedule of the phases on this CPU."""
+    config = json.load(open(os.path.join(folder, "metrics.json")))["config"]
+    if config["preset"] != "paper":
+        raise SystemExit(f"{folder} holds a {config['preset']!r} mission; --work takes a paper one")
+    cores = os.cpu_count()
+    phases: dict[tuple[str, int], list[float]] = {}
+    with tempfile.TemporaryDirectory() as scratch:
+        for _ in range(repeats):
+            for threads in (cores, 1):
+                copy = shutil.copytree(folder, os.path.join(scratch, "state"), dirs_exist_ok=True)
+                torch.set_num_threads(threads)
+                mission = Mission(MissionConfig(scene=config["scene"], planner=config["planner"], seed=config["seed"],
+                                                preset="paper", budget=config["budget"]), out=copy, resume=True)
+                mission.release()
+                for name, phase in (
+                        ("train", lambda: mission.map.trainer.update(iterations)),
+                        ("plan", lambda: mission.planner.next_view(mission.planning_map.planning_source,
+                                                                   np.array(mission.visited), mission.targets)),
+                        ("evaluate", lambda: mission.evaluator.evaluate(mission.map))):
+                    start = time.perf_counter()
+                    phase()
+                    phases.setdefault((name, threads), []).append(time.perf_counter() - start)
+    median = {key: statistics.median(times) for key, times in phases.items()}
+    per_view = get_preset("paper").train.iterations_per_view
+    print(f"a step's phases on the state of {folder} ({len(mission.records)} views), medians of {repeats}:")
+    for name in ("train", "plan", "evaluate"):
+        print(f"  {name}{f' ({iterations} iterations)' if name == 'train' else ''}: {median[name, cores]:.1f} s at "
+              f"{cores} threads, {median[name, 1]:.1f} s at one ({median[name, 1] / median[name, cores]:.2f}x)")
+    def step(threads):
+        return median["train", threads] * per_view / iterations + median["plan", threads] + median["evaluate", threads]
+    theirs, where = authors_step()
+    print(f"a step ({per_view} iterations): {step(cores):.1f} s at {cores} threads; its work at one thread "
+          f"{step(1):.1f} core-seconds, so no schedule on {cores} cores takes under {step(1) / cores:.1f} s; a fifth of "
+          f"the authors' step is {theirs / 5:.1f} s ({where})")
 
 
 def peak_gb() -> float:

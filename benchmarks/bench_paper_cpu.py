@@ -46,6 +46,7 @@ from stair_lite.geometry import TOP_VIEW, Intrinsics, fibonacci_hemisphere
 from stair_lite.maps import IMPLICIT
 from stair_lite.mission import Mission, MissionConfig, World, build_map
 from stair_lite.planners import make_planner
+from stair_lite.results_folder import CHECKPOINT_FILE, METRICS_FILE
 from stair_lite.utility import FieldSnapshot, score_views
 
 from authors_record import RECORD_DEFAULT, cpu_model, read_record
@@ -182,7 +183,11 @@ def step_work(folder: str, repeats: int, iterations: int = 40) -> None:
     """Each phase of a step on the stored state of ``folder``, at all cores and at one torch thread, alternated; the
     step's work at one thread (the preset's iterations scaled from ``iterations``) over the cores: a floor for any
     schedule of the phases on this CPU."""
-    config = json.load(open(os.path.join(folder, "metrics.json")))["config"]
+    missing = [name for name in (METRICS_FILE, CHECKPOINT_FILE) if not os.path.isfile(os.path.join(folder, name))]
+    if missing:
+        raise SystemExit(f"{folder} has no {' or '.join(missing)}: --work takes a stored mission's folder with its "
+                         f"checkpoint (checkpoints stay on the machine that ran the mission)")
+    config = json.load(open(os.path.join(folder, METRICS_FILE)))["config"]
     if config["preset"] != "paper":
         raise SystemExit(f"{folder} holds a {config['preset']!r} mission; --work takes a paper one")
     cores = os.cpu_count()

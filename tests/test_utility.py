@@ -165,6 +165,29 @@ def test_stair_planner_prefers_the_uncertain_target_and_skips_visited_views():
     assert np.degrees(MIN_SEPARATION) == pytest.approx(8.1, abs=0.05)
 
 
+def test_the_spread_variant_scores_as_stair_and_keeps_its_views_35_degrees_apart():
+    """``stair_spread`` ranks with STAIR's utility (the same scores for the same candidates) and picks the best
+    candidate at least 35 degrees from every visited view; with every view within that of a visited one it says so."""
+    field = SlabField(0.5, cls=1)
+    cfg = PlanConfig(n_uniform=30, top_k=3, n_resample=3, candidate_scale=0.04, candidate_samples=64)
+    preset = get_preset("lite", plan=cfg)
+    visited = np.array([[np.pi / 2, 0.0], [np.radians(30), 0.0], [np.radians(30), np.pi]])
+    spread, stair = make_planner("stair_spread", preset, seed=0), make_planner("stair", preset, seed=0)
+    assert np.degrees(spread.min_separation) == pytest.approx(35.0) and stair.min_separation == MIN_SEPARATION
+    views = fibonacci_hemisphere(12)
+    np.testing.assert_array_equal(spread.utility(field, views, visited, (1,)), stair.utility(field, views, visited, (1,)))
+    d = spread.next_view(field, visited, (1,))
+    allowed = far_enough(d.candidates, visited, np.radians(35.0))
+    assert 0 < allowed.sum() < len(d.candidates)  # the rule leaves some candidates out and some in
+    assert d.chosen_index == int(np.argmax(np.where(allowed, d.scores.utility, -np.inf)))
+    one_stage = make_planner("stair_spread", get_preset("lite", plan=PlanConfig(
+        n_uniform=30, top_k=3, n_resample=0, candidate_scale=0.04, candidate_samples=64)), seed=0)
+    assert len(one_stage.next_view(field, visited, (1,)).candidates) == 30  # no second stage: the first stage alone
+    crowded = fibonacci_hemisphere(60)  # every view of the hemisphere lies within 35 degrees of one of these
+    with pytest.raises(RuntimeError, match="within 35.0 degrees .* of one of the 60 visited views"):
+        spread.next_view(field, crowded, (1,))
+
+
 def test_unknown_planner_is_named():
     with pytest.raises(ValueError, match="unknown planner 'greedy'"):
         make_planner("greedy", get_preset("paper"), seed=0)

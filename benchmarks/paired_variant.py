@@ -1,7 +1,8 @@
 """A variant run in its own results folder, paired over seeds with the variants of a stored comparison: per scene and
 pooled over the scenes (a pair per scene and seed), each metric's mean over the steps, with the paired t-test of
-``claims``; then each variant's view spread (the mean angle between two of a mission's views, median over the seeds)
-and the median elevation of its views after the first. A seed gives every variant the same field initialisation and
+``claims``; then each variant's view spread (the mean angle between two of a mission's views, median over the seeds),
+the median elevation of its views after the first, and the median angle from a view to the nearest earlier view of its
+mission. A seed gives every variant the same field initialisation and
 first view, so the variant's missions pair with the stored ones of the same scene and seed.
 
 Run: .venv/bin/python benchmarks/paired_variant.py --variant stair_volume --results data/results/volume_lite
@@ -15,7 +16,7 @@ import numpy as np
 import stair_lite  # noqa: F401
 from stair_lite.claims import compare, metrics_of, scenes_of
 from stair_lite.experiments import collect
-from stair_lite.geometry import view_spread
+from stair_lite.geometry import angular_distance, view_spread
 from stair_lite.metrics import METRICS
 
 
@@ -46,15 +47,18 @@ def main():
                   f"p = {c.p_value:.3f}) {c.verdict} | " +
                   " | ".join(f"{s}: {x.difference:+.{d}f} {x.verdict}" for s, x in zip(scenes, per_scene)))
     for variant in [args.variant, *others]:
-        spread, elevation = [], []
+        spread, elevation, nearest = [], [], []
         for scene in scenes:
             missions = [sorted((r for r in rows if (r["scene"], r["variant"], r["seed"]) == (scene, variant, seed)),
                                key=lambda r: r["step"]) for seed in sorted(s for sc, s in pairs if sc == scene)]
-            spread.append(np.median([np.degrees(view_spread(np.radians([[r["elevation_deg"], r["azimuth_deg"]]
-                                                                         for r in m]))) for m in missions if len(m) > 1]))
+            views = [np.radians([[r["elevation_deg"], r["azimuth_deg"]] for r in m]) for m in missions if len(m) > 1]
+            spread.append(np.median([np.degrees(view_spread(v)) for v in views]))
             elevation.append(np.median([r["elevation_deg"] for m in missions for r in m[1:]]))
+            # how near each new view lands to the mission's earlier ones
+            nearest.extend(np.degrees(angular_distance(v, v)[i, :i].min()) for v in views for i in range(1, len(v)))
         print(f"{variant:12s} view spread [deg] " + ", ".join(f"{v:.0f}" for v in spread) +
-              "; median elevation after the first view [deg] " + ", ".join(f"{v:.0f}" for v in elevation))
+              "; median elevation after the first view [deg] " + ", ".join(f"{v:.0f}" for v in elevation) +
+              f"; median angle to the nearest earlier view, all scenes {np.median(nearest):.0f} deg")
 
 
 if __name__ == "__main__":

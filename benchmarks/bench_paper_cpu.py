@@ -202,8 +202,7 @@ def step_work(folder: str, repeats: int, iterations: int = 40) -> None:
                 mission.release()
                 for name, phase in (
                         ("train", lambda: mission.map.trainer.update(iterations)),
-                        ("plan", lambda: mission.planner.next_view(mission.planning_map.planning_source,
-                                                                   np.array(mission.visited), mission.targets)),
+                        ("plan", mission.plan),
                         ("evaluate", lambda: mission.evaluator.evaluate(mission.map))):
                     start = time.perf_counter()
                     phase()

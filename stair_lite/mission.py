@@ -191,6 +191,11 @@ class Mission:
         self.planner.load_state_dict(state["planner"])
 
     # ----------------------------------------------------------------- the loop
+    def plan(self):
+        """The planner's decision on the next view, from what it reads of the maps now (a Decision)."""
+        source = self.planning_map.planning_source if self.planning_map is not None else None
+        return self.planner.next_view(source, np.array(self.visited), self.targets)
+
     def step(self) -> dict:
         """One step: plan (the top view first), move and measure, update the maps, evaluate, record and
         save. Returns the step's record: the view, the planner's scores (``score_columns``), the loss, every
@@ -202,8 +207,7 @@ class Mission:
         if number == 1:
             view, decision = np.array(TOP_VIEW), None
         else:
-            source = self.planning_map.planning_source if self.planning_map is not None else None
-            decision = self.planner.next_view(source, np.array(self.visited), self.targets)
+            decision = self.plan()
             view = decision.view
         t_plan = time.perf_counter() - start
         release_freed_memory()  # between phases (allocator.py): the peak is the largest phase's, not their sum

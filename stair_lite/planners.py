@@ -10,6 +10,7 @@ way. Every mission starts from the top view; planners never return a view alread
   stair_soft, stair_semantic  beyond the paper (notebook 07): STAIR with the soft target mask, or with the
                semantic-uncertainty term lambda U_sem (registered with those ``UtilityOptions``)
   stair_spread beyond the paper: STAIR whose views keep 35 degrees from every earlier one (not the reference 8.1)
+  stair_rings  beyond the paper: STAIR's utility choosing the azimuth only, each view at the fixed spiral's elevation
   fixed        a spiral down the hemisphere, no map feedback (the reference code's Fibonacci spiral)
   max_distance the random candidate farthest (mean squared distance) from the visited cameras
   uniform      a random view, area-uniform on the hemisphere
@@ -178,6 +179,38 @@ class UtilityPlanner(Planner):
                         info={"resampled_around": uniform[order]})
 
 
+class RingPlanner(UtilityPlanner):
+    """Beyond the paper: STAIR's utility choosing where around the scene to look, at the fixed spiral's elevations.
+    The n-th view after the top one lies on the spiral's n-th ring (``spiral_after_top``); of as many views evenly
+    spread in azimuth on that ring as STAIR scores in its two stages (N_uni + K N_re), the one of highest utility.
+    Set beside the spiral and STAIR, it separates what STAIR's views lack: the spiral's spread of elevations, or its
+    choice of azimuths (RESULTS.md, "The spiral's elevations")."""
+
+    depends_on_budget = True
+
+    @classmethod
+    def from_preset(cls, preset, rng, **utility_options) -> "RingPlanner":
+        return cls(preset.plan, rng, UtilityOptions.from_plan(preset.plan, **utility_options), budget=preset.budget)
+
+    def __init__(self, cfg: PlanConfig, rng: np.random.Generator, options: UtilityOptions | None = None,
+                 budget: int = 10, **kwargs):
+        super().__init__(cfg, rng, options, **kwargs)
+        self.elevations = spiral_after_top(budget)[:, 0]
+
+    def next_view(self, field, visited, targets) -> Decision:
+        elevation = self.elevations[(len(visited) - 1) % len(self.elevations)]
+        n = self.cfg.n_uniform + self.cfg.top_k * self.cfg.n_resample
+        azimuths = (self.rng.uniform(0, 2 * np.pi) + 2 * np.pi * np.arange(n) / n) % (2 * np.pi)
+        candidates = np.stack([np.full(n, elevation), azimuths], axis=1)
+        scores = self._score(self._source(field, targets), candidates, targets)
+        value = np.where(far_enough(candidates, visited, self.min_separation), self._value(scores), -np.inf)
+        best = int(np.argmax(value))
+        if not np.isfinite(value[best]):
+            raise self._crowded(visited)
+        return Decision(view=candidates[best], candidates=candidates, scores=scores, chosen_index=best,
+                        info={"ring_elevation": float(elevation)})
+
+
 @dataclass
 class NoveltyScores:
     """Per-view scores of a novelty utility (``CoveragePlanner``, ``FisherPlanner``), under its record column."""
@@ -234,6 +267,12 @@ class FisherPlanner(CoveragePlanner):
         return 1.0 / (1.0 + field.surface_rays)
 
 
+def spiral_after_top(budget: int, azimuth_offset: float = 0.0) -> np.ndarray:
+    """The fixed spiral's views after the top one, (budget - 1, 2) [elevation, azimuth]: the rings of a
+    ``budget``-view Fibonacci spiral without its top-most, walked from high to low elevation."""
+    return fibonacci_hemisphere(max(budget, 2), azimuth_offset=azimuth_offset)[:-1][::-1]
+
+
 class FixedPatternPlanner(Planner):
     """A fixed spiral: the reference code's 10-view Fibonacci spiral turned by one random azimuth,
     top-most view dropped, walked from high to low elevation. It never looks at the map."""
@@ -247,8 +286,7 @@ class FixedPatternPlanner(Planner):
 
     def __init__(self, cfg: PlanConfig, rng: np.random.Generator, budget: int):
         super().__init__(cfg, rng)
-        spiral = fibonacci_hemisphere(max(budget, 2), azimuth_offset=rng.uniform(0, 2 * np.pi))
-        self.sequence = spiral[:-1][::-1]
+        self.sequence = spiral_after_top(budget, azimuth_offset=rng.uniform(0, 2 * np.pi))
 
     def next_view(self, field, visited, targets) -> Decision:
         index = (len(visited) - 1) % len(self.sequence)
@@ -427,6 +465,9 @@ register_planner("stair_volume", UtilityPlanner, unknown_occupancy=PlanConfig.un
 # degrees leave at least 8 of them allowed at every step of a ten-view mission even when each pick is the allowed view
 # nearest the earlier ones (200 simulated missions; 40 degrees left none in one)
 register_planner("stair_spread", UtilityPlanner, min_separation=float(np.radians(35.0)))
+# STAIR's utility choosing only the azimuth, each view on the fixed spiral's ring for its step (RESULTS, "The spiral's
+# elevations"): the spiral's spread of elevations with STAIR's choice of where to look
+register_planner("stair_rings", RingPlanner)
 register_planner("coverage", CoveragePlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 register_planner("fisher", FisherPlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 

@@ -247,7 +247,7 @@ def render_uncertainty(
     sem = torch.bmm(weights[:, None, :], probs).squeeze(1)  # sum_i w_i s_i, one small product per ray
     # what the ray does not hit is background: 1 - sum_i w_i, which rounding can make a hair negative on a ray that
     # saturates (o = 0.5 in the marked unknown); clamped, so that a ray through space of no class (uniform class
-    # probabilities) ties and renders as background instead of as the class after it (class 1, the car)
+    # probabilities) ties with the other classes, a tie ``ray_classes`` gives to the background
     sem[:, BACKGROUND] += (1.0 - acc).clamp(min=0.0)
     v, h, w = len(poses), intrinsics.height, intrinsics.width
     return {"h_ray": h_ray.view(v, h, w), "sem": sem.view(v, h, w, NUM_CLASSES), "h_sem": class_entropy(sem).view(v, h, w)}
@@ -264,9 +264,23 @@ def target_probability(sem: torch.Tensor, targets: tuple[int, ...]) -> torch.Ten
     return sem[..., list(targets)].sum(dim=-1)
 
 
+# Rendered class probabilities within this of the background's tie with it, and the background wins. A ray through space
+# of no class (uniform class probabilities: the marked unknown far from a target) renders every class's equal share, in
+# floats whose last bits depend on the CPU's matrix kernel: up to 3e-8 apart on an AMD EPYC (none on an Intel Xeon), and
+# a rounding accident must not make the ray a target
+CLASS_TIE = 1e-5
+
+
+def ray_classes(sem: torch.Tensor) -> torch.Tensor:
+    """Each ray's rendered class (..., P) -> (...): the argmax of S, a tie with the background (``CLASS_TIE``) going
+    to the background."""
+    tie = sem.max(dim=-1).values - sem[..., BACKGROUND] <= CLASS_TIE
+    return sem.argmax(dim=-1).masked_fill(tie, BACKGROUND)
+
+
 def target_mask(sem: torch.Tensor, targets: tuple[int, ...], dilation: int = 0) -> torch.Tensor:
-    """delta(r) of Eq. 14: rays whose rendered class argmax is a target (V, H, W), optionally dilated."""
-    mask = torch.isin(sem.argmax(dim=-1), torch.as_tensor(targets, device=sem.device))
+    """delta(r) of Eq. 14: rays whose rendered class (``ray_classes``) is a target (V, H, W), optionally dilated."""
+    mask = torch.isin(ray_classes(sem), torch.as_tensor(targets, device=sem.device))
     if dilation > 0:
         k = 2 * dilation + 1
         mask = F.max_pool2d(mask[:, None].float(), k, stride=1, padding=dilation)[:, 0] > 0

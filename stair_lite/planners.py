@@ -156,6 +156,14 @@ class UtilityPlanner(Planner):
         return RuntimeError(f"every candidate lies within {np.degrees(self.min_separation):.1f} degrees (the minimum "
                             f"separation) of one of the {len(visited)} visited views")
 
+    def _best_allowed(self, candidates: np.ndarray, scores, visited: np.ndarray) -> int:
+        """The index of the candidate of highest value among those ``min_separation`` from every visited view."""
+        value = np.where(far_enough(candidates, visited, self.min_separation), self._value(scores), -np.inf)
+        best = int(np.argmax(value))
+        if not np.isfinite(value[best]):
+            raise self._crowded(visited)
+        return best
+
     def next_view(self, field, visited, targets) -> Decision:
         cfg = self.cfg
         source = self._source(field, targets)
@@ -170,10 +178,7 @@ class UtilityPlanner(Planner):
         ) if cfg.n_resample > 0 and order else np.zeros((0, 2))
         candidates = np.concatenate([uniform, resampled])
         scores = type(first).concatenate([first] + ([self._score(source, resampled, targets)] if len(resampled) else []))
-        value = np.where(far_enough(candidates, visited, self.min_separation), self._value(scores), -np.inf)
-        best = int(np.argmax(value))
-        if not np.isfinite(value[best]):
-            raise self._crowded(visited)
+        best = self._best_allowed(candidates, scores, visited)
         # the first-stage views the second stage was drawn around, best first (the order of the draws)
         return Decision(view=candidates[best], candidates=candidates, scores=scores, chosen_index=best,
                         info={"resampled_around": uniform[order]})
@@ -203,10 +208,7 @@ class RingPlanner(UtilityPlanner):
         azimuths = (self.rng.uniform(0, 2 * np.pi) + 2 * np.pi * np.arange(n) / n) % (2 * np.pi)
         candidates = np.stack([np.full(n, elevation), azimuths], axis=1)
         scores = self._score(self._source(field, targets), candidates, targets)
-        value = np.where(far_enough(candidates, visited, self.min_separation), self._value(scores), -np.inf)
-        best = int(np.argmax(value))
-        if not np.isfinite(value[best]):
-            raise self._crowded(visited)
+        best = self._best_allowed(candidates, scores, visited)
         return Decision(view=candidates[best], candidates=candidates, scores=scores, chosen_index=best,
                         info={"ring_elevation": float(elevation)})
 

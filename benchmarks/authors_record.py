@@ -1,26 +1,19 @@
 """The authors' step as ``authors_step.py`` measured it, kept with the machine it ran on, so that
 ``bench_paper_cpu.py`` compares our step with theirs only on the same CPU (standard library only: their environment
-imports it too)."""
+imports it too; the CPU's name comes from ``stair_lite/machine.py``, loaded as a file)."""
 from __future__ import annotations
 
+import importlib.util
 import json
-import platform
 from pathlib import Path
 
 RECORD_DEFAULT = "runs/authors/step.json"
 
-
-def cpu_model() -> str:
-    """This machine's CPU, as Linux names it, with its family, model and stepping numbers (a virtual machine's name may
-    say only "Intel(R) Xeon(R) Processor"); ``platform.processor()`` elsewhere."""
-    try:
-        fields = dict(line.split(":", 1) for line in Path("/proc/cpuinfo").read_text().split("\n\n")[0].splitlines()
-                      if ":" in line)
-    except OSError:
-        return platform.processor() or "unknown"
-    fields = {key.strip(): value.strip() for key, value in fields.items()}
-    return (f"{fields.get('model name', 'unknown')} (family {fields.get('cpu family', '?')}, model "
-            f"{fields.get('model', '?')}, stepping {fields.get('stepping', '?')})")
+# the package's cpu_model, loaded from its file: the authors' environment does not have the package installed
+_spec = importlib.util.spec_from_file_location("stair_lite_machine", Path(__file__).parents[1] / "stair_lite" / "machine.py")
+_machine = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_machine)
+cpu_model = _machine.cpu_model
 
 
 def write_record(path: str, **figures) -> None:

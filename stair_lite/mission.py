@@ -15,12 +15,14 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from .allocator import release_freed_memory
 from .classes import CLASS_NAMES
 from .config import SEED_LIMIT, Preset, check_device, get_preset
 from .evaluation import Evaluator
 from .geometry import TOP_VIEW, view_to_pose
+from .machine import cpu_model
 from .maps import IMPLICIT, MAP_KINDS, ReconstructionMap
 from .metrics import METRICS
 from .planners import make_planner, planner_class, planner_file_hash
@@ -127,6 +129,7 @@ class Mission:
         self.folder = ResultsFolder(out) if out is not None else None
         self.out = Path(out) if out is not None else None
         self.sources = source_hash()  # recorded with every step: a resumed mission may run on changed code
+        self.cpu = cpu_model()  # and the machine: a resume may run on another CPU, whose float sums differ
         self.records: list[dict] = []
         self.saved_steps = 0  # the steps on disk (a resume continues after them)
         if self.folder is not None:
@@ -233,6 +236,8 @@ class Mission:
             **{name: metric.value(result, self.map) for name, metric in METRICS.items()},
             "time_s": {"plan": t_plan, "measure": t_measure, "train": t_train, "evaluate": result["time_total_s"]},
             "source_hash": self.sources,
+            "cpu": self.cpu,
+            "torch_threads": torch.get_num_threads(),
         }
         if decision is not None and decision.scores is not None:
             record.update(decision.scores.columns(decision.chosen_index))

@@ -4,9 +4,11 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+import torch
 
 import stair_lite  # noqa: F401
 from stair_lite.config import get_preset
+from stair_lite.machine import cpu_model
 from stair_lite.mission import Mission, MissionConfig
 from stair_lite.results_folder import FORMAT, FolderInUseError, ResultsFolderError, source_hash
 
@@ -90,14 +92,23 @@ def test_the_stored_header_records_what_the_mission_ran_with(tmp_path):
     assert header["config"]["mapper"] == "implicit"
 
 
-def test_each_step_records_the_sources_that_ran_it(tmp_path, monkeypatch):
-    """A resumed mission's steps may run on other code than its first ones: each step names its own."""
+def test_each_step_records_the_sources_and_the_machine_that_ran_it(tmp_path, monkeypatch):
+    """A resumed mission's steps may run on other code, another CPU or another thread count than its first ones: each
+    step names its own."""
     run(tmp_path, "m", budget=1)
     monkeypatch.setattr("stair_lite.mission.source_hash", lambda: "0123456789abcdef")  # as if the code had changed
-    run(tmp_path, "m", budget=2, resume=True)
+    monkeypatch.setattr("stair_lite.mission.cpu_model", lambda: "Another CPU (family 1, model 2, stepping 3)")
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        run(tmp_path, "m", budget=2, resume=True)
+    finally:
+        torch.set_num_threads(threads)
     steps = json.loads((tmp_path / "m" / "metrics.json").read_text())["steps"]
     assert [r["source_hash"] for r in steps] == [source_hash(), "0123456789abcdef"]
     assert len(source_hash()) == 16 and int(source_hash(), 16) >= 0
+    assert [r["cpu"] for r in steps] == [cpu_model(), "Another CPU (family 1, model 2, stepping 3)"]
+    assert [r["torch_threads"] for r in steps] == [threads, 1]
 
 
 def test_results_folder_is_protected(tmp_path):

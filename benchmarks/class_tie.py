@@ -35,7 +35,6 @@ def plain_argmax(counts: dict):
     return classes
 
 
-
 def next_view(folder: str, scratch: str, classes, seed: int | None):
     """The next view of the mission stored in ``folder`` with ``classes`` as the rays' class rule: its own planner's
     (``seed`` None) or a fresh planner's of that seed."""

@@ -77,6 +77,12 @@ def far_enough(candidates: np.ndarray, visited: np.ndarray, min_separation: floa
     return angular_distance(candidates, visited).min(axis=1) > min_separation
 
 
+def spiral_after_top(budget: int, azimuth_offset: float = 0.0) -> np.ndarray:
+    """The fixed spiral's views after the top one, (budget - 1, 2) [elevation, azimuth]: the rings of a
+    ``budget``-view Fibonacci spiral without its top-most, walked from high to low elevation."""
+    return fibonacci_hemisphere(max(budget, 2), azimuth_offset=azimuth_offset)[:-1][::-1]
+
+
 class Planner:
     """Interface: ``next_view(source, visited, targets)`` -> Decision, where ``source`` is what the
     planner ``reads`` (the ``planning_source`` of the map of that kind, or None). Its state is its
@@ -189,7 +195,7 @@ class RingPlanner(UtilityPlanner):
     The n-th view after the top one lies on the spiral's n-th ring (``spiral_after_top``); of as many views evenly
     spread in azimuth on that ring as STAIR scores in its two stages (N_uni + K N_re), the one of highest utility.
     Set beside the spiral and STAIR, it separates what STAIR's views lack: the spiral's spread of elevations, or its
-    choice of azimuths (RESULTS.md, "The spiral's elevations")."""
+    choice of azimuths (RESULTS.md, "The spiral's elevations, STAIR's azimuths")."""
 
     depends_on_budget = True
 
@@ -267,12 +273,6 @@ class FisherPlanner(CoveragePlanner):
 
     def _novelty(self, field):
         return 1.0 / (1.0 + field.surface_rays)
-
-
-def spiral_after_top(budget: int, azimuth_offset: float = 0.0) -> np.ndarray:
-    """The fixed spiral's views after the top one, (budget - 1, 2) [elevation, azimuth]: the rings of a
-    ``budget``-view Fibonacci spiral without its top-most, walked from high to low elevation."""
-    return fibonacci_hemisphere(max(budget, 2), azimuth_offset=azimuth_offset)[:-1][::-1]
 
 
 class FixedPatternPlanner(Planner):
@@ -468,7 +468,7 @@ register_planner("stair_volume", UtilityPlanner, unknown_occupancy=PlanConfig.un
 # nearest the earlier ones (200 simulated missions; 40 degrees left none in one)
 register_planner("stair_spread", UtilityPlanner, min_separation=float(np.radians(35.0)))
 # STAIR's utility choosing only the azimuth, each view on the fixed spiral's ring for its step (RESULTS, "The spiral's
-# elevations"): the spiral's spread of elevations with STAIR's choice of where to look
+# elevations, STAIR's azimuths"): the spiral's spread of elevations with STAIR's choice of where to look
 register_planner("stair_rings", RingPlanner)
 register_planner("coverage", CoveragePlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)
 register_planner("fisher", FisherPlanner, unknown_occupancy=0.0, unknown_target_radius=0.0)

@@ -38,11 +38,11 @@ def plain_argmax(counts: dict):
 def next_view(folder: str, scratch: str, classes, seed: int | None):
     """The next view of the mission stored in ``folder`` with ``classes`` as the rays' class rule: its own planner's
     (``seed`` None) or a fresh planner's of that seed."""
-    config = json.load(open(os.path.join(folder, METRICS_FILE)))["config"]
+    stored = json.load(open(os.path.join(folder, METRICS_FILE)))
+    config = stored["config"]
     copy = shutil.copytree(folder, os.path.join(scratch, "state"), dirs_exist_ok=True)
-    done = len(json.load(open(os.path.join(copy, METRICS_FILE)))["steps"])
     mission = Mission(MissionConfig(scene=config["scene"], planner=config["planner"], seed=config["seed"],
-                                    preset=config["preset"], budget=done), out=copy, resume=True)
+                                    preset=config["preset"], budget=len(stored["steps"])), out=copy, resume=True)
     utility.ray_classes = classes
     try:
         if seed is None:
